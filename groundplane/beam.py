@@ -1,0 +1,233 @@
+"""The one far-field beam object every solver and loader returns, and its native file.
+
+Conventions (written down once, as pyuvdata's UVBeam does):
+
+* ``gain`` is *linear* power gain ``[freq, theta, phi]`` (gain = directivity for a
+  lossless PEC model), absolute (not peak-normalised).
+* ``theta_deg`` is the zenith angle (0 = zenith, 90 = horizon); only the upper
+  hemisphere is used for scoring.
+* ``phi_deg`` is the azimuth in the antenna frame, counter-clockwise seen from above,
+  with phi = 0 along the antenna's excitation axis (the E-plane) and phi = 90 the
+  H-plane. The grid is periodic: it must not repeat 360 = 0.
+
+Native file: ``.npz`` with arrays ``freqs_mhz``, ``theta_deg``, ``phi_deg``, ``gain``
+and a JSON string ``meta``. It is read with ``allow_pickle=False``.
+"""
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+class BeamFormatError(ValueError):
+    """A beam file or array that is malformed, truncated or inconsistent."""
+
+
+@dataclass(frozen=True, eq=False)
+class Beam:
+    """Linear power gain ``gain[f, theta, phi]`` on a regular angular grid, plus metadata."""
+
+    freqs_mhz: np.ndarray
+    theta_deg: np.ndarray
+    phi_deg: np.ndarray
+    gain: np.ndarray
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        f = np.asarray(self.freqs_mhz, dtype=float).ravel()
+        t = np.asarray(self.theta_deg, dtype=float).ravel()
+        p = np.asarray(self.phi_deg, dtype=float).ravel()
+        g = np.asarray(self.gain, dtype=float)
+        object.__setattr__(self, "freqs_mhz", f)
+        object.__setattr__(self, "theta_deg", t)
+        object.__setattr__(self, "phi_deg", p)
+        object.__setattr__(self, "gain", g)
+        object.__setattr__(self, "meta", dict(self.meta))
+        src = self.meta.get("source", "beam")
+        if g.shape != (f.size, t.size, p.size):
+            raise BeamFormatError(
+                f"{src}: gain has shape {g.shape}, expected (n_freq, n_theta, n_phi) = "
+                f"({f.size}, {t.size}, {p.size})"
+            )
+        for name, arr in (("freqs_mhz", f), ("theta_deg", t), ("phi_deg", p)):
+            if arr.size == 0:
+                raise BeamFormatError(f"{src}: {name} is empty")
+            if not np.all(np.isfinite(arr)):
+                raise BeamFormatError(f"{src}: {name} has non-finite values")
+            if arr.size > 1 and not np.all(np.diff(arr) > 0):
+                raise BeamFormatError(f"{src}: {name} must be strictly increasing")
+        if np.any(f <= 0):
+            raise BeamFormatError(f"{src}: frequencies must be positive (MHz)")
+        if t[0] < 0 or t[-1] > 180:
+            raise BeamFormatError(f"{src}: theta_deg must lie within 0..180, got {t[0]}..{t[-1]}")
+        if p[0] < 0 or p[-1] >= 360:
+            raise BeamFormatError(
+                f"{src}: phi_deg must lie within [0, 360) (do not repeat 360 = 0), got {p[0]}..{p[-1]}"
+            )
+        if not np.all(np.isfinite(g)):
+            bad = np.argwhere(~np.isfinite(g))[0]
+            raise BeamFormatError(
+                f"{src}: gain is not finite at freq {f[bad[0]]} MHz, theta {t[bad[1]]}, phi {p[bad[2]]}"
+            )
+        if np.any(g < 0):
+            raise BeamFormatError(f"{src}: linear power gain must be >= 0")
+
+    # ------------------------------------------------------------------ views
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return self.gain.shape  # type: ignore[return-value]
+
+    def upper_hemisphere(self) -> "Beam":
+        """The beam restricted to theta <= 90 deg (what the sky integral uses)."""
+        keep = self.theta_deg <= 90.0 + 1e-9
+        return Beam(self.freqs_mhz, self.theta_deg[keep], self.phi_deg, self.gain[:, keep, :], self.meta)
+
+    def solid_angle_weights(self) -> np.ndarray:
+        """dOmega (sr) of each (theta, phi) sample of the upper hemisphere: cell areas.
+
+        Cells span half-way to the neighbouring samples (clipped to 0..90 deg in theta and
+        periodic in phi), so the weights add to exactly 2 pi over a full upper-hemisphere grid.
+        """
+        t = np.radians(self.theta_deg)
+        edges = np.concatenate([[t[0]], 0.5 * (t[1:] + t[:-1]), [t[-1]]])
+        edges = np.clip(edges, 0.0, np.pi / 2)
+        if self.theta_deg[0] <= 1e-9:
+            edges[0] = 0.0
+        band = np.cos(edges[:-1]) - np.cos(edges[1:])
+        p = np.radians(self.phi_deg)
+        if p.size == 1:
+            dphi = np.array([2 * np.pi])
+        else:
+            nxt = np.concatenate([p[1:], [p[0] + 2 * np.pi]])
+            prv = np.concatenate([[p[-1] - 2 * np.pi], p[:-1]])
+            dphi = 0.5 * (nxt - prv)
+        return np.clip(band, 0.0, None)[:, None] * dphi[None, :]
+
+    def at_frequency(self, freq_mhz: float) -> np.ndarray:
+        """Gain [theta, phi] at one of the beam's frequencies."""
+        idx = np.flatnonzero(np.isclose(self.freqs_mhz, freq_mhz))
+        if idx.size == 0:
+            raise KeyError(f"{freq_mhz} MHz is not one of the beam's frequencies")
+        return self.gain[idx[0]]
+
+    def cut(self, phi_deg: float) -> np.ndarray:
+        """Gain [freq, theta] in the vertical plane at azimuth ``phi_deg`` (nearest sample)."""
+        d = np.abs((self.phi_deg - phi_deg + 180) % 360 - 180)
+        return self.gain[:, :, int(np.argmin(d))]
+
+    def gain_at(self, theta_deg: float, phi_deg: float) -> np.ndarray:
+        """Gain vs frequency at the nearest grid direction."""
+        it = int(np.argmin(np.abs(self.theta_deg - theta_deg)))
+        return self.cut(phi_deg)[:, it]
+
+    def beam_width_3db(self, freq_mhz: float, phi_deg: float) -> float:
+        """Full 3 dB beam width (deg) in the plane ``phi_deg`` at one frequency.
+
+        Linear interpolation of the gain in dB along both halves of the plane (phi and
+        phi + 180), measured from the peak at or near zenith.
+        """
+        f = int(np.argmin(np.abs(self.freqs_mhz - freq_mhz)))
+        hemi = self.theta_deg <= 90 + 1e-9
+        th = self.theta_deg[hemi]
+        widths = []
+        for ph in (phi_deg, phi_deg + 180.0):
+            d = np.abs((self.phi_deg - ph + 180) % 360 - 180)
+            g = self.gain[f, hemi, int(np.argmin(d))]
+            widths.append(_half_power_angle(th, g))
+        peak_ok = all(np.isfinite(widths))
+        return float(sum(widths)) if peak_ok else float("nan")
+
+    def rotated(self, phi_offset_deg: float) -> "Beam":
+        """The same beam with its azimuth origin moved: new phi = old phi - ``phi_offset_deg``.
+
+        Used to put phi = 0 on the excitation axis when a solver model was built with the
+        dipole along another axis. The offset must be a whole number of grid steps.
+        """
+        step = np.diff(self.phi_deg)
+        if self.phi_deg.size < 2 or not np.allclose(step, step[0]) or not np.isclose(
+            self.phi_deg.size * step[0], 360.0
+        ):
+            raise ValueError("rotation needs a uniform full-circle phi grid")
+        shift = phi_offset_deg / step[0]
+        if not np.isclose(shift, round(shift)):
+            raise ValueError(f"phi offset {phi_offset_deg} deg is not a multiple of the {step[0]} deg grid")
+        gain = np.roll(self.gain, -int(round(shift)), axis=2)
+        total = float(self.meta.get("phi_rotation_deg", 0.0)) + phi_offset_deg
+        return Beam(self.freqs_mhz, self.theta_deg, self.phi_deg, gain, {**self.meta, "phi_rotation_deg": total})
+
+    def with_meta(self, **extra: Any) -> "Beam":
+        return Beam(self.freqs_mhz, self.theta_deg, self.phi_deg, self.gain, {**self.meta, **extra})
+
+    # ------------------------------------------------------------------- file
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write the native ``.npz`` file atomically (temp file + rename)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp.npz")
+        os.close(fd)
+        try:
+            np.savez_compressed(
+                tmp,
+                freqs_mhz=self.freqs_mhz,
+                theta_deg=self.theta_deg,
+                phi_deg=self.phi_deg,
+                gain=self.gain,
+                meta=np.array(json.dumps(self.meta, sort_keys=True, default=_json_default)),
+            )
+            os.chmod(tmp, 0o644)
+            os.replace(tmp, path)
+        except BaseException:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+            raise
+        return path
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> "Beam":
+        """Read a native ``.npz`` beam (never unpickles)."""
+        path = Path(path)
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                missing = {"freqs_mhz", "theta_deg", "phi_deg", "gain"} - set(z.files)
+                if missing:
+                    raise BeamFormatError(f"{path}: missing arrays {sorted(missing)} in native beam file")
+                meta = json.loads(str(z["meta"])) if "meta" in z.files else {}
+                arrays = {k: np.array(z[k]) for k in ("freqs_mhz", "theta_deg", "phi_deg", "gain")}
+        except BeamFormatError:
+            raise
+        except (OSError, ValueError, json.JSONDecodeError) as exc:
+            raise BeamFormatError(f"{path}: not a readable groundplane .npz beam ({exc})") from exc
+        meta.setdefault("source", str(path))
+        return cls(meta=meta, **arrays)
+
+
+def _half_power_angle(theta: np.ndarray, gain: np.ndarray) -> float:
+    """Zenith angle at which ``gain`` first falls 3 dB below its value at zenith."""
+    with np.errstate(divide="ignore"):
+        db = 10 * np.log10(np.maximum(gain, 1e-30))
+    ref = db[0]
+    below = np.flatnonzero(db <= ref - 3.0103)
+    if below.size == 0:
+        return float("nan")
+    i = below[0]
+    if i == 0:
+        return 0.0
+    # linear interpolation between samples i-1 and i
+    x0, x1, y0, y1 = theta[i - 1], theta[i], db[i - 1], db[i]
+    return float(x0 + (ref - 3.0103 - y0) * (x1 - x0) / (y1 - y0))
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")

@@ -1,0 +1,295 @@
+"""The chromaticity Figure of Merit of Mahesh et al. 2021 (SPEC section 3), and the
+secondary chromaticity metrics of their section 2.3.
+
+T_ant(nu, LST) = 1/(4 pi) * sum_pixels G(nu, pix) * T_sky(nu, pix, LST) * dOmega(pix)
+is one matrix product ``gain[f, pix] @ (dOmega * T408)[pix, LST]`` scaled by the power
+law; a 5-term LinLog model is fitted per LST by linear least squares, and the FoM is the
+RMS of the residuals over the fit band, per LST and averaged over LST.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from .beam import Beam
+from .sky import MRO, T_CMB_K, HorizonSky, Site, horizon_sky, lst_grid
+
+
+@dataclass(frozen=True)
+class Absorption:
+    """Flattened-Gaussian absorption feature of Bowman et al. 2018 (added to the sky)."""
+
+    nu0_mhz: float = 78.0
+    tau: float = 7.0
+    width_mhz: float = 18.0
+    amplitude_k: float = 0.5
+
+    def temperature(self, freqs_mhz: np.ndarray) -> np.ndarray:
+        """T21(nu) in K (negative: an absorption)."""
+        nu = np.asarray(freqs_mhz, dtype=float)
+        b = 4 * (nu - self.nu0_mhz) ** 2 / self.width_mhz**2 * np.log(
+            -1 / self.tau * np.log((1 + np.exp(-self.tau)) / 2)
+        )
+        return -self.amplitude_k * (1 - np.exp(-self.tau * np.exp(b))) / (1 - np.exp(-self.tau))
+
+
+@dataclass(frozen=True)
+class FomSettings:
+    """Everything the FoM depends on besides the beam. Defaults are the paper's."""
+
+    beta: float = 2.55
+    fit_band_mhz: tuple[float, float] = (55.0, 97.0)
+    nu0_mhz: float = 75.0
+    n_terms: int = 5
+    antenna_azimuth_deg: float = -7.0
+    site: Site = MRO
+    n_lst: int = 360
+    normalise: bool = False
+    subtract_cmb: bool = False
+    absorption: Absorption | None = None
+
+    def __post_init__(self) -> None:
+        lo, hi = self.fit_band_mhz
+        if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi):
+            raise ValueError(f"fit band must be 0 < lo < hi MHz, got {self.fit_band_mhz}")
+        if self.n_terms < 1:
+            raise ValueError(f"n_terms must be >= 1, got {self.n_terms}")
+        if self.n_lst < 1:
+            raise ValueError(f"n_lst must be >= 1, got {self.n_lst}")
+
+    def as_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["fit_band_mhz"] = list(self.fit_band_mhz)
+        return d
+
+
+@dataclass
+class FomResult:
+    """FoM per LST (K) with the spectra it came from."""
+
+    freqs_mhz: np.ndarray  # all beam frequencies
+    lst_hours: np.ndarray
+    t_ant: np.ndarray  # [f, lst] K
+    fit_mask: np.ndarray  # which freqs are in the fit band
+    residuals: np.ndarray  # [f_fit, lst] K
+    fom: np.ndarray  # [lst] K
+    settings: FomSettings
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def lst_averaged_fom_mk(self) -> float:
+        return float(np.mean(self.fom) * 1e3)
+
+    def as_json(self) -> dict[str, Any]:
+        return {
+            "lst_averaged_fom_mk": self.lst_averaged_fom_mk,
+            "fom_mk": (self.fom * 1e3).tolist(),
+            "lst_hours": self.lst_hours.tolist(),
+            "freqs_mhz": self.freqs_mhz.tolist(),
+            "fit_freqs_mhz": self.freqs_mhz[self.fit_mask].tolist(),
+            "settings": self.settings.as_dict(),
+            **self.extra,
+        }
+
+
+# --------------------------------------------------------------------------- core
+def _hemisphere(beam: Beam) -> tuple[Beam, np.ndarray]:
+    hemi = beam.upper_hemisphere()
+    src = beam.meta.get("source", "beam")
+    if hemi.theta_deg.size < 2 or hemi.theta_deg[0] > 1e-6 or hemi.theta_deg[-1] < 90 - 1e-6:
+        raise ValueError(f"{src}: the beam must cover theta 0..90 deg to be scored")
+    phi = hemi.phi_deg
+    gaps = np.diff(np.concatenate([phi, [phi[0] + 360.0]]))
+    if phi.size < 4 or gaps[-1] > 1.5 * np.max(gaps[:-1]):
+        raise ValueError(
+            f"{src}: the beam covers azimuth {phi[0]:g}..{phi[-1]:g} deg only; a drift-scan FoM needs the "
+            "full circle (for FEKO quadrant exports, give all the quadrant files together)"
+        )
+    return hemi, hemi.solid_angle_weights()
+
+
+def sky_for(beam: Beam, settings: FomSettings, progress: bool = False) -> HorizonSky:
+    """The horizon-frame sky on this beam's grid (cached)."""
+    hemi, _ = _hemisphere(beam)
+    return horizon_sky(
+        hemi.theta_deg,
+        hemi.phi_deg,
+        lsts_deg=lst_grid(settings.n_lst),
+        site=settings.site,
+        antenna_azimuth_deg=settings.antenna_azimuth_deg,
+        progress=progress,
+    )
+
+
+def beam_sky_products(beam: Beam, sky: HorizonSky) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(sum G w T408 [f, lst], sum G w [f], sum w T408 [lst]) over the upper hemisphere."""
+    hemi, w = _hemisphere(beam)
+    n_pix = w.size
+    g = hemi.gain.reshape(hemi.freqs_mhz.size, n_pix)
+    wt = sky.weighted(w)  # [pix, lst]
+    return g @ wt, g @ w.ravel(), wt.sum(axis=0)
+
+
+def antenna_temperature(
+    beam: Beam, settings: FomSettings = FomSettings(), sky: HorizonSky | None = None
+) -> np.ndarray:
+    """T_ant [f, lst] in K: the beam-weighted sky above the horizon (SPEC 3.4)."""
+    sky = sky or sky_for(beam, settings)
+    gwt, gw, _ = beam_sky_products(beam, sky)
+    return _t_ant_from_products(beam.freqs_mhz, gwt, gw, settings)
+
+
+def _t_ant_from_products(freqs, gwt, gw, settings: FomSettings) -> np.ndarray:
+    scale = (np.asarray(freqs) / 408.0) ** (-settings.beta)
+    if settings.subtract_cmb:
+        # T_sky = (T408 - T_cmb) s(nu) + T_cmb
+        t = scale[:, None] * (gwt - T_CMB_K * gw[:, None]) + T_CMB_K * gw[:, None]
+    else:
+        t = scale[:, None] * gwt
+    if settings.absorption is not None:
+        t = t + settings.absorption.temperature(freqs)[:, None] * gw[:, None]
+    if settings.normalise:
+        return t / gw[:, None]
+    return t / (4 * np.pi)
+
+
+def linlog_design(freqs_mhz: np.ndarray, nu0_mhz: float, beta: float, n_terms: int) -> np.ndarray:
+    """LinLog basis [f, m] = (nu/nu0)^-beta * ln(nu/nu0)^m (SPEC 3.5)."""
+    x = np.asarray(freqs_mhz, dtype=float) / nu0_mhz
+    return x[:, None] ** (-beta) * np.log(x)[:, None] ** np.arange(n_terms)[None, :]
+
+
+def fit_band_mask(freqs_mhz: np.ndarray, band: tuple[float, float], n_terms: int) -> np.ndarray:
+    lo, hi = band
+    mask = (freqs_mhz >= lo - 1e-9) & (freqs_mhz <= hi + 1e-9)
+    if mask.sum() <= n_terms:
+        raise ValueError(
+            f"fit band {lo:g}-{hi:g} MHz holds {int(mask.sum())} of the beam's frequencies "
+            f"({freqs_mhz.min():g}-{freqs_mhz.max():g} MHz); a {n_terms}-term fit needs more than {n_terms}"
+        )
+    return mask
+
+
+def linlog_residuals(freqs_mhz: np.ndarray, spectra: np.ndarray, settings: FomSettings) -> np.ndarray:
+    """Residuals [f, n] of a LinLog least-squares fit to each column of ``spectra``."""
+    a = linlog_design(freqs_mhz, settings.nu0_mhz, settings.beta, settings.n_terms)
+    coef, *_ = np.linalg.lstsq(a, spectra, rcond=None)
+    return spectra - a @ coef
+
+
+def fom_from_spectra(
+    freqs_mhz: np.ndarray, t_ant: np.ndarray, settings: FomSettings, lst_hours: np.ndarray | None = None
+) -> FomResult:
+    """FoM(LST) = RMS over the fit band of T_ant minus its LinLog fit (SPEC 3.6)."""
+    freqs_mhz = np.asarray(freqs_mhz, dtype=float)
+    mask = fit_band_mask(freqs_mhz, settings.fit_band_mhz, settings.n_terms)
+    res = linlog_residuals(freqs_mhz[mask], t_ant[mask], settings)
+    fom = np.sqrt(np.mean(res**2, axis=0))
+    if lst_hours is None:
+        lst_hours = lst_grid(t_ant.shape[1]) / 15.0
+    return FomResult(freqs_mhz, np.asarray(lst_hours), t_ant, mask, res, fom, settings)
+
+
+def figure_of_merit(
+    beam: Beam,
+    settings: FomSettings = FomSettings(),
+    *,
+    correction_beam: Beam | None = None,
+    progress: bool = False,
+) -> FomResult:
+    """The FoM of a beam. With ``correction_beam`` the spectra are first divided by the
+    beam-correction factor computed from that beam model (Mozdzen et al. 2019)."""
+    sky = sky_for(beam, settings, progress=progress)
+    t_ant = antenna_temperature(beam, settings, sky)
+    extra: dict[str, Any] = {}
+    if correction_beam is not None:
+        b = beam_correction_factor(correction_beam, settings, freqs_mhz=beam.freqs_mhz)
+        t_ant = t_ant / b
+        extra["beam_corrected_with"] = correction_beam.meta.get("source", "beam")
+    result = fom_from_spectra(beam.freqs_mhz, t_ant, settings, sky.lst_hours)
+    result.extra.update(extra)
+    return result
+
+
+# ---------------------------------------------------------------- secondary metrics
+def beam_correction_factor(
+    beam: Beam,
+    settings: FomSettings = FomSettings(),
+    nu_ref_mhz: float | None = None,
+    freqs_mhz: np.ndarray | None = None,
+) -> np.ndarray:
+    """B(nu, LST) = int G(nu) T_sky(nu_ref) dOmega / int G(nu_ref) T_sky(nu_ref) dOmega.
+
+    ``nu_ref`` (default: the beam frequency nearest the LinLog nu0, 75 MHz in the paper)
+    must be one of the beam's frequencies; ``freqs_mhz`` (default: the beam's) must be
+    too, so a correction computed from a model beam can be applied to another beam's spectra.
+    """
+    sky = sky_for(beam, settings)
+    gwt, _, _ = beam_sky_products(beam, sky)
+    if nu_ref_mhz is None:
+        nu_ref_mhz = float(beam.freqs_mhz[np.argmin(np.abs(beam.freqs_mhz - settings.nu0_mhz))])
+    iref = _freq_index(beam, nu_ref_mhz)
+    b = gwt / gwt[iref][None, :]
+    if freqs_mhz is None:
+        return b
+    idx = [_freq_index(beam, f) for f in np.asarray(freqs_mhz)]
+    return b[idx]
+
+
+def _freq_index(beam: Beam, f: float) -> int:
+    i = np.flatnonzero(np.isclose(beam.freqs_mhz, f, atol=1e-6))
+    if i.size == 0:
+        raise ValueError(f"{f} MHz is not among the frequencies of {beam.meta.get('source', 'the beam')}")
+    return int(i[0])
+
+
+def gain_polynomial_residuals(
+    beam: Beam, band_mhz: tuple[float, float] = (50.0, 100.0), n_terms: int = 3
+) -> dict[str, dict[str, list[float]]]:
+    """Residuals of an ``n_terms`` polynomial fit of G vs frequency at zenith and at 45 deg
+    elevation in the E- (phi 0) and H- (phi 90) planes (paper section 2.3)."""
+    mask = fit_band_mask(beam.freqs_mhz, band_mhz, n_terms)
+    f = beam.freqs_mhz[mask]
+    out: dict[str, dict[str, list[float]]] = {}
+    for name, theta, phi in (("zenith", 0.0, 0.0), ("E45", 45.0, 0.0), ("H45", 45.0, 90.0)):
+        g = beam.gain_at(theta, phi)[mask]
+        coef = np.polyfit(f - f.mean(), g, n_terms - 1)
+        r = g - np.polyval(coef, f - f.mean())
+        out[name] = {"freqs_mhz": f.tolist(), "gain": g.tolist(), "residual": r.tolist(),
+                     "peak_to_peak": float(np.ptp(r))}
+    return out
+
+
+def gain_derivative(beam: Beam, phi_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """dG/dnu (per MHz) across the vertical plane ``phi_deg``: elevation 0..180 deg runs
+    from the horizon at phi through zenith (90) to the horizon at phi + 180, as in the
+    paper's plots. Returns (frequency mid-points, elevation, dG/dnu [f-1, elevation])."""
+    hemi = beam.upper_hemisphere()
+    cut_a = hemi.cut(phi_deg)
+    cut_b = hemi.cut(phi_deg + 180.0)
+    elev = np.concatenate([90.0 - hemi.theta_deg, 90.0 + hemi.theta_deg[1:]])
+    g = np.concatenate([cut_a, cut_b[:, 1:]], axis=1)
+    order = np.argsort(elev)
+    df = np.diff(beam.freqs_mhz)
+    deriv = np.diff(g[:, order], axis=0) / df[:, None]
+    return 0.5 * (beam.freqs_mhz[1:] + beam.freqs_mhz[:-1]), elev[order], deriv
+
+
+def chromaticity_report(beam: Beam, settings: FomSettings = FomSettings()) -> dict[str, Any]:
+    """The secondary metrics in one JSON-able dict."""
+    band = (max(50.0, beam.freqs_mhz.min()), min(100.0, beam.freqs_mhz.max()))
+    rep: dict[str, Any] = {}
+    try:
+        rep["gain_poly3_residuals"] = gain_polynomial_residuals(beam, band)
+    except ValueError as exc:
+        rep["gain_poly3_residuals"] = {"error": str(exc)}
+    for plane, phi in (("E", 0.0), ("H", 90.0)):
+        fm, el, d = gain_derivative(beam, phi)
+        rep[f"max_abs_dG_dnu_{plane}"] = float(np.max(np.abs(d)))
+    return rep
+
+
+def with_settings(settings: FomSettings, **kw: Any) -> FomSettings:
+    return replace(settings, **kw)

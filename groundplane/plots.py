@@ -1,0 +1,51 @@
+"""Figures people would rather look at than read: FoM vs LST and residual spectra."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from .fom import FomResult
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def fom_figure(results: Sequence[FomResult], labels: Sequence[str], path: str | Path,
+               lst_hours_for_residuals: Sequence[float] = (2.0, 6.0, 12.0, 18.0)) -> Path:
+    """FoM vs LST (top) and LinLog residual spectra at a few LSTs (bottom), one line per beam."""
+    plt = _plt()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    n = len(lst_hours_for_residuals)
+    fig = plt.figure(figsize=(10, 4 + 2.2 * ((n + 1) // 2)))
+    gs = fig.add_gridspec(1 + (n + 1) // 2, 2, height_ratios=[1.6] + [1] * ((n + 1) // 2))
+    ax = fig.add_subplot(gs[0, :])
+    for r, lab in zip(results, labels):
+        ax.plot(r.lst_hours, r.fom * 1e3, label=f"{lab} ({r.lst_averaged_fom_mk:.1f} mK)")
+    ax.set_xlabel("LST (h)")
+    ax.set_ylabel("FoM (mK)")
+    ax.set_xlim(0, 24)
+    ax.set_yscale("log")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, title="LST-averaged FoM", title_fontsize=8)
+    for k, lst in enumerate(lst_hours_for_residuals):
+        a = fig.add_subplot(gs[1 + k // 2, k % 2])
+        for r, lab in zip(results, labels):
+            i = int(np.argmin(np.abs(r.lst_hours - lst)))
+            a.plot(r.freqs_mhz[r.fit_mask], r.residuals[:, i] * 1e3, label=lab)
+        a.set_title(f"LST {lst:g} h: residuals after {results[0].settings.n_terms}-term LinLog", fontsize=9)
+        a.set_xlabel("frequency (MHz)")
+        a.set_ylabel("T_ant - model (mK)")
+        a.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

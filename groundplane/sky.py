@@ -1,0 +1,230 @@
+"""The sky seen by a drift-scanning antenna: the Haslam 408 MHz map in the horizon frame.
+
+With one spectral index the sky at frequency nu is ``(nu/408)^-beta * T_408``, so the
+408 MHz map only has to be resampled into the beam's (theta, phi) grid once per LST.
+That ``[LST, theta, phi]`` array is computed with astropy (AltAz -> Galactic at the
+time each LST occurs, so precession, nutation and aberration are astropy's) and healpy
+(bilinear interpolation), and cached on disk: scoring a beam is then a matrix product.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from dataclasses import dataclass, field
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+HASLAM_FILE = "haslam408_haslam1982_mpifr_nside0128_galactic_ring_K.fits"
+SIDEREAL_DAY_S = 86164.0905  # mean sidereal day; only a first guess, refined with astropy
+T_CMB_K = 2.725
+
+
+@dataclass(frozen=True)
+class Site:
+    """An observing site (geodetic latitude and east longitude, deg)."""
+
+    name: str = "MRO"
+    lat_deg: float = -26.714778
+    lon_deg: float = 116.605528
+    height_m: float = 0.0
+
+
+MRO = Site()
+
+
+def cache_dir() -> Path:
+    """Where derived, recomputable data lives (GROUNDPLANE_CACHE, else ~/.cache/groundplane)."""
+    d = os.environ.get("GROUNDPLANE_CACHE")
+    path = Path(d) if d else Path.home() / ".cache" / "groundplane"
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def default_sky_path() -> Path:
+    """The Haslam 408 MHz map shipped inside the package (no network needed)."""
+    return Path(str(resources.files("groundplane") / "data" / HASLAM_FILE))
+
+
+@lru_cache(maxsize=4)
+def _read_map(path: str) -> np.ndarray:
+    import healpy as hp
+
+    m = hp.read_map(path, field=0, dtype=np.float64)
+    if not np.all(np.isfinite(m)):
+        raise ValueError(f"{path}: sky map has non-finite pixels")
+    return m
+
+
+def load_sky_map(path: str | os.PathLike | None = None) -> np.ndarray:
+    """A HEALPix map in Galactic coordinates, RING ordering, Kelvin (default: Haslam 408 MHz)."""
+    return _read_map(str(path or default_sky_path()))
+
+
+def _file_digest(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()[:16]
+
+
+def lst_grid(n_lst: int = 360) -> np.ndarray:
+    """LSTs (deg) of an n-bin drift scan over one sidereal day: 0, 360/n, ..."""
+    return np.arange(n_lst) * (360.0 / n_lst)
+
+
+def lst_times(lsts_deg: np.ndarray, site: Site = MRO, epoch: str = "2017-01-01T00:00:00"):
+    """astropy Times, after ``epoch``, at which the local apparent sidereal time equals each LST."""
+    import astropy.units as u
+    from astropy.time import Time
+
+    from ._astro import location
+
+    loc = location(site)
+    t0 = Time(epoch, scale="utc")
+    lst0 = t0.sidereal_time("apparent", longitude=loc.lon).deg
+    t = t0 + ((np.asarray(lsts_deg) - lst0) % 360.0) / 360.0 * SIDEREAL_DAY_S * u.s
+    for _ in range(2):  # refine with astropy's own sidereal time
+        err = (t.sidereal_time("apparent", longitude=loc.lon).deg - np.asarray(lsts_deg) + 180) % 360 - 180
+        t = t - err / 360.0 * SIDEREAL_DAY_S * u.s
+    return t
+
+
+def horizon_to_galactic(
+    alt_deg: np.ndarray, az_deg: np.ndarray, times, site: Site = MRO
+) -> tuple[np.ndarray, np.ndarray]:
+    """Galactic (l, b) in deg of horizon directions (az from North through East) at each time.
+
+    Returns arrays of shape ``(len(times),) + alt.shape``. No refraction (pressure 0).
+    """
+    import astropy.units as u
+    from astropy.coordinates import AltAz, Galactic, SkyCoord
+
+    from ._astro import location
+
+    loc = location(site)
+    ls, bs = [], []
+    for t in np.atleast_1d(times):
+        frame = AltAz(obstime=t, location=loc)
+        c = SkyCoord(alt=np.ravel(alt_deg) * u.deg, az=np.ravel(az_deg) * u.deg, frame=frame)
+        g = c.transform_to(Galactic())
+        ls.append(g.l.deg.reshape(np.shape(alt_deg)))
+        bs.append(g.b.deg.reshape(np.shape(alt_deg)))
+    return np.array(ls), np.array(bs)
+
+
+def antenna_to_horizon(theta_deg: np.ndarray, phi_deg: np.ndarray, antenna_azimuth_deg: float):
+    """Horizon (alt, az) of the antenna-frame grid (theta zenith angle, phi CCW from the
+    excitation axis seen from above) for an excitation axis at ``antenna_azimuth_deg``
+    (from North through East). Azimuth runs clockwise seen from above, so az = az0 - phi."""
+    th, ph = np.meshgrid(theta_deg, phi_deg, indexing="ij")
+    return 90.0 - th, (antenna_azimuth_deg - ph) % 360.0
+
+
+@dataclass(frozen=True)
+class HorizonSky:
+    """The 408 MHz sky sampled on a beam grid for each LST: ``t408[lst, theta, phi]`` (K)."""
+
+    lsts_deg: np.ndarray
+    theta_deg: np.ndarray
+    phi_deg: np.ndarray
+    t408: np.ndarray
+    key: str
+    _weighted: dict = field(default_factory=dict, compare=False, repr=False)
+
+    @property
+    def lst_hours(self) -> np.ndarray:
+        return self.lsts_deg / 15.0
+
+    def weighted(self, weights: np.ndarray) -> np.ndarray:
+        """``dOmega * T408`` as a [pixel, LST] matrix (float64), kept for reuse: every beam
+        on this grid is then scored by one matrix product."""
+        k = hashlib.sha256(np.ascontiguousarray(weights).tobytes()).hexdigest()[:16]
+        if k not in self._weighted:
+            n_pix = weights.size
+            m = np.empty((n_pix, self.t408.shape[0]))
+            np.multiply(self.t408.reshape(self.t408.shape[0], n_pix).T, weights.reshape(n_pix, 1), out=m)
+            self._weighted.clear()
+            self._weighted[k] = m
+        return self._weighted[k]
+
+
+_MEMORY: dict[str, HorizonSky] = {}
+
+
+def horizon_sky(
+    theta_deg: np.ndarray,
+    phi_deg: np.ndarray,
+    *,
+    lsts_deg: np.ndarray | None = None,
+    site: Site = MRO,
+    antenna_azimuth_deg: float = -7.0,
+    sky_path: str | os.PathLike | None = None,
+    use_disk_cache: bool = True,
+    progress: bool = False,
+) -> HorizonSky:
+    """The sky in the antenna's horizon frame for every LST, from memory, disk or computed.
+
+    The disk cache is keyed by site, grid, LST set, antenna azimuth and the map's content
+    hash, written atomically, and is safe to delete.
+    """
+    import healpy as hp
+
+    lsts = lst_grid() if lsts_deg is None else np.asarray(lsts_deg, dtype=float)
+    theta = np.asarray(theta_deg, dtype=float)
+    phi = np.asarray(phi_deg, dtype=float)
+    path = Path(sky_path or default_sky_path())
+    ident = {
+        "v": 1,
+        "site": [site.lat_deg, site.lon_deg, site.height_m],
+        "theta": hashlib.sha256(theta.tobytes()).hexdigest()[:16],
+        "phi": hashlib.sha256(phi.tobytes()).hexdigest()[:16],
+        "lst": hashlib.sha256(lsts.tobytes()).hexdigest()[:16],
+        "az0": float(antenna_azimuth_deg),
+        "map": _file_digest(path),
+    }
+    key = hashlib.sha256(json.dumps(ident, sort_keys=True).encode()).hexdigest()[:24]
+    if key in _MEMORY:
+        return _MEMORY[key]
+    file = cache_dir() / f"horizon_sky_{key}.npy"
+    t408 = None
+    if use_disk_cache and file.exists():
+        try:
+            t408 = np.load(file, allow_pickle=False)
+            if t408.shape != (lsts.size, theta.size, phi.size):
+                t408 = None
+        except (OSError, ValueError):
+            t408 = None  # a damaged cache entry is recomputed, never trusted
+    if t408 is None:
+        sky = load_sky_map(path)
+        alt, az = antenna_to_horizon(theta, phi, antenna_azimuth_deg)
+        times = lst_times(lsts, site)
+        t408 = np.empty((lsts.size, theta.size, phi.size), dtype=np.float32)
+        it = range(lsts.size)
+        if progress:
+            from tqdm import tqdm
+
+            it = tqdm(it, desc="sky -> horizon frame", unit="LST")
+        for i in it:
+            l, b = horizon_to_galactic(alt, az, [times[i]], site)
+            t408[i] = hp.get_interp_val(sky, l[0], b[0], lonlat=True)
+        if use_disk_cache:
+            fd, tmp = tempfile.mkstemp(dir=file.parent, suffix=".npy.tmp")
+            os.close(fd)
+            try:
+                with open(tmp, "wb") as fh:
+                    np.save(fh, t408)
+                os.replace(tmp, file)
+            finally:
+                if os.path.exists(tmp):
+                    os.unlink(tmp)
+    hs = HorizonSky(lsts, theta, phi, t408, key)
+    if len(_MEMORY) > 8:
+        _MEMORY.clear()
+    _MEMORY[key] = hs
+    return hs

@@ -1,0 +1,1 @@
+"""Optimisation over ground-plane candidates: objective, nlopt loop, sweeps, reports."""
