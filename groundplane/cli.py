@@ -237,7 +237,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return int(args.func(args) or 0)
-    except (CLIError, sh.ShapeError, BeamFormatError, FileNotFoundError, ValueError) as exc:
+    except (CLIError, sh.ShapeError, BeamFormatError, FileNotFoundError, ValueError, RuntimeError) as exc:
         print(f"groundplane {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

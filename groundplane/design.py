@@ -53,6 +53,8 @@ class Design:
         return json.dumps(self.as_dict(), sort_keys=True, default=float)
 
     def label(self) -> str:
-        p = "infinite-PEC" if self.plane is None else self.plane.describe()
+        if self.plane is None:
+            return "blade dipole over infinite PEC ground"
+        p = self.plane.describe()
         g = "PEC" if isinstance(self.ground, InfinitePEC) else f"soil eps_r={self.ground.eps_r} sigma={self.ground.sigma}"
         return f"{p} over {g}"
