@@ -1,0 +1,51 @@
+"""NEC-2 solve speed: seconds per frequency vs number of segments (square-10 at several
+mesh spacings, one frequency), and per-candidate estimates for square-10 and
+sawtooth-20-16 at the default mesh. Baseline in the same process: the blade alone over
+infinite PEC, so the printed ratios survive a noisy machine. Never fails on a time.
+
+    .venv/bin/python benchmarks/bench_nec.py [--spacings 1.0 0.7 0.5] [--full]
+
+--full solves all 61 frequencies of both candidates (minutes to tens of minutes).
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from groundplane.design import Design, InfinitePEC, Soil
+from groundplane.shapes import PRESETS
+from solvers.nec import MeshSettings, NecSolver, build_model
+
+
+def timed(design: Design, mesh: MeshSettings, freqs, workers: int = 1) -> tuple[float, int]:
+    t0 = time.perf_counter()
+    NecSolver(mesh=mesh, workers=workers, progress=False, use_cache=False).solve(design, freqs)
+    return time.perf_counter() - t0, build_model(design, mesh).n_segments
+
+
+def main() -> None:
+    p = argparse.ArgumentParser()
+    p.add_argument("--spacings", type=float, nargs="+", default=[1.0, 0.7, 0.5])
+    p.add_argument("--full", action="store_true")
+    a = p.parse_args()
+    base, nseg = timed(Design(None, InfinitePEC()), MeshSettings(), [75.0])
+    print(f"baseline: blade over PEC, {nseg} segments, 1 frequency, 1 process: {base:.2f} s (incl. process start)")
+    print(f"{'candidate':>16} {'spacing':>8} {'segments':>9} {'s/freq':>8} {'x baseline':>10}")
+    for sp in a.spacings:
+        t, n = timed(Design(PRESETS["square-10"], Soil()), MeshSettings(spacing=sp), [75.0])
+        print(f"{'square-10':>16} {sp:8.2f} {n:9d} {t:8.2f} {t / base:10.1f}")
+    for name in ("square-10", "sawtooth-20-16"):
+        d = Design(PRESETS[name], Soil())
+        if a.full:
+            t, n = timed(d, MeshSettings(), np.arange(40.0, 101.0), workers=2)
+            print(f"{name}: 61 frequencies, 2 processes, {n} segments: {t / 60:.1f} min")
+        else:
+            t, n = timed(d, MeshSettings(), [75.0])
+            print(f"{name}: {n} segments, {t:.1f} s per frequency (1 process) -> ~{61 * t / 2 / 60:.1f} min "
+                  f"for 61 frequencies on 2 processes")
+
+
+if __name__ == "__main__":
+    main()
