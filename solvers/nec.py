@@ -12,8 +12,9 @@ Modelling choices (and why):
 * Blade: each panel a rectangular wire grid (``blade_cells`` cells, 2 mm wires), fed by
   one segment of the same radius across the 4.4 cm gap. No balun, top plate or shield.
 * Absolute gain: NEC's input power at this feed is too high for practical blade grids
-  (average power gain over PEC 1.78 for 8 x 6 cells, 1.84 for 12 x 10, 1.96 for 24 x 18:
-  the pattern shape converges faster than the level). With ``gain_calibration="pec"`` (the
+  (mean gain over PEC below 2: results/feed_calibration.md, from
+  ``python -m solvers.studies feed-calibration``; the level converges slowly with the
+  blade mesh). With ``gain_calibration="pec"`` (the
   default) each frequency is also solved for the same blade over infinite PEC, where the
   truth is known (lossless: mean gain over the upper hemisphere = 2), and the gain is
   divided by kappa(f) = that mean / 2. This assumes the feed-model error is the same over
@@ -372,13 +373,16 @@ def mirror_quadrant(q: np.ndarray) -> np.ndarray:
 
 
 def _solve_one(args: tuple) -> tuple[float, np.ndarray, float, float]:
-    """Worker: one frequency. Returns (freq, gain [91, n_phi], kappa, seconds)."""
+    """Worker: one frequency. Returns (freq, gain [91, n_phi], kappa, seconds).
+
+    ``ref_model`` is the blade over PEC for the gain calibration, ``model`` itself when the
+    design *is* the blade over PEC (solved once), or None for no calibration."""
     model, ref_model, freq, n_phi = args
     t0 = time.perf_counter()
     g = _pattern(model, freq, n_phi)
     kappa = 1.0
     if ref_model is not None:
-        gp = _pattern(ref_model, freq, n_phi)
+        gp = g if ref_model is model else _pattern(ref_model, freq, n_phi)
         kappa = _upper_mean_gain(gp, n_phi) / 2.0
         if not (0.3 < kappa < 3.0):
             raise SolveError(f"gain calibration factor {kappa:.3f} at {freq} MHz is implausible")
@@ -435,13 +439,13 @@ class NecSolver:
         if freqs.size == 0 or np.any(freqs <= 0):
             raise ValueError("frequencies must be positive MHz")
         ground = "pec" if isinstance(design.ground, InfinitePEC) else "soil"
-        info = check_engine(ground, allow_unverified=self.allow_unverified_engine)
         cache = BeamCache()
         key = self.cache_key(design, freqs)
         if self.use_cache:
             hit = cache.get(key)
             if hit is not None:
-                return hit
+                return hit  # the engine was checked when this entry was solved
+        info = check_engine(ground, allow_unverified=self.allow_unverified_engine)
         try:
             model = build_model(design, self.mesh)
         except SolveError:
@@ -450,9 +454,9 @@ class NecSolver:
             raise SolveError(f"{design.label()}: could not mesh the model ({exc})") from exc
         symmetric = design.plane is None or all(design.plane.mirror_symmetry.values())
         n_phi = 91 if symmetric else 360
-        ref = pec_reference_model(design, self.mesh) if self.mesh.gain_calibration == "pec" and ground == "soil" else None
-        if ground == "pec" and self.mesh.gain_calibration == "pec":
-            ref = pec_reference_model(design, self.mesh)
+        ref = None
+        if self.mesh.gain_calibration == "pec":
+            ref = model if ground == "pec" else pec_reference_model(design, self.mesh)
         done = cache.partial(key) if self.use_cache else {}
         todo = [f for f in freqs if float(f) not in done]
         results: dict[float, tuple[np.ndarray, float, float]] = dict(done)
@@ -463,31 +467,29 @@ class NecSolver:
             bar = tqdm(total=freqs.size, initial=freqs.size - len(todo), unit="freq",
                        desc=f"NEC {design.plane.key() if design.plane else 'PEC'} ({model.n_segments} seg)")
         jobs = [(model, ref, float(f), n_phi) for f in todo]
+        pool = None
         try:
             if self.workers >= 1:  # NEC in worker processes (see engine_call); 0 = in-process
                 import multiprocessing as mp
 
-                with ProcessPoolExecutor(max_workers=self.workers, mp_context=mp.get_context("spawn"),
-                                         initializer=_worker_init) as pool:
-                    for f, g, kappa, secs in pool.map(_solve_one, jobs):
-                        results[f] = (g, kappa, secs)
-                        if self.use_cache:
-                            cache.put_partial(key, f, g, kappa, secs)
-                        if bar:
-                            bar.update(1)
+                pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=mp.get_context("spawn"),
+                                           initializer=_worker_init)
+                outputs = pool.map(_solve_one, jobs)
             else:
-                for job in jobs:
-                    f, g, kappa, secs = _solve_one(job)
-                    results[f] = (g, kappa, secs)
-                    if self.use_cache:
-                        cache.put_partial(key, f, g, kappa, secs)
-                    if bar:
-                        bar.update(1)
+                outputs = map(_solve_one, jobs)
+            for f, g, kappa, secs in outputs:  # each frequency is saved as soon as it is done
+                results[f] = (g, kappa, secs)
+                if self.use_cache:
+                    cache.put_partial(key, f, g, kappa, secs)
+                if bar:
+                    bar.update(1)
         except SolveError as exc:
             raise SolveError(f"{design.label()}: {exc}") from exc
         except Exception as exc:
             raise SolveError(f"{design.label()}: NEC solve failed ({type(exc).__name__}: {exc})") from exc
         finally:
+            if pool is not None:
+                pool.shutdown(cancel_futures=True)
             if bar:
                 bar.close()
         gains = np.stack([results[float(f)][0] for f in freqs])

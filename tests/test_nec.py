@@ -50,7 +50,7 @@ def test_average_gain_over_pec_is_two_with_a_fine_blade():
     assert mean == pytest.approx(2.0, rel=0.02)
 
 
-def test_calibrated_default_blade_matches_fine_blade_over_pec():
+def test_pec_calibration_factor_and_beam_widths():
     d = Design(None, InfinitePEC())
     coarse = NecSolver(workers=1, progress=False, use_cache=False).solve(d, [60.0, 90.0])
     w = coarse.solid_angle_weights()
