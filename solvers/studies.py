@@ -109,6 +109,13 @@ def _convergence_summary(rows: list[dict]) -> list[str]:
         verdict = "converged to within 5 %" if abs(change) < 5 else "**not converged**"
         out.append(f"- FoM vs spacing ({' -> '.join(str(r['spacing_m']) for r in full)} m): {seq} mK. "
                    f"The last step ({a['spacing_m']} -> {b['spacing_m']} m) changed it by {change:+.1f} %: {verdict}.")
+        if len(full) >= 3:
+            h = np.array([r["spacing_m"] for r in full])
+            fom = np.array([r["fom_mk"] for r in full])
+            slope, f0 = np.polyfit(h, fom, 1)
+            out.append(f"- A straight line through FoM vs spacing reaches {f0:.0f} mK at zero spacing "
+                       f"(slope {slope:.0f} mK per m): indicative only. Extrapolating the *beams* instead "
+                       "(Richardson on G per frequency) was tried and amplifies mesh noise: it is not used.")
     zen = sorted([r for r in rows if r["wire_radius_m"] == 0.01], key=lambda r: -r["spacing_m"])
     if len(zen) >= 2:
         out.append("- Zenith gain at 75 MHz vs spacing: "
