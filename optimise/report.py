@@ -1,0 +1,160 @@
+"""Ranking reports of a sweep: report.md and report.html, results.csv/json, and figures
+(outlines, FoM vs LST, residual spectra at a few LSTs, FoM vs metal area)."""
+from __future__ import annotations
+
+import csv
+import html
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from groundplane.shapes import from_dict
+
+from .objective import RESIDUAL_LSTS_H
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def ranked(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    ok = sorted([r for r in rows if r.get("status") == "ok"], key=lambda r: r["lst_averaged_fom_mk"])
+    return ok + [r for r in rows if r.get("status") != "ok"]
+
+
+def write_report(rows: list[dict[str, Any]], out_dir: str | Path, title: str = "Ground-plane sweep",
+                 preamble: str = "") -> dict[str, Path]:
+    """Write every report file into ``out_dir``; returns their paths by kind."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = ranked(rows)
+    ok = [r for r in rows if r.get("status") == "ok"]
+    paths = {"json": out / "results.json", "csv": out / "results.csv", "md": out / "report.md",
+             "html": out / "report.html"}
+    paths["json"].write_text(json.dumps(rows, indent=1))
+    with open(paths["csv"], "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["rank", "name", "status", "shape", "params", "metal_area_m2", "extent_m",
+                    "lst_averaged_fom_mk", "solve_s", "error"])
+        for i, r in enumerate(rows, 1):
+            w.writerow([i if r.get("status") == "ok" else "", r["name"], r.get("status"), r.get("shape"),
+                        json.dumps(r.get("params")), r.get("metal_area_m2"), r.get("extent_m"),
+                        r.get("lst_averaged_fom_mk"), r.get("solve_s"), r.get("error", "")])
+    figs = {}
+    if ok:
+        figs = _figures(ok, out)
+    paths.update(figs)
+    table = ["| rank | candidate | shape | metal area (m^2) | extent (m) | LST-averaged FoM (mK) | solve (s) |",
+             "|---|---|---|---|---|---|---|"]
+    for i, r in enumerate(ok, 1):
+        table.append(f"| {i} | {r['name']} | {r['shape']} | {_f(r.get('metal_area_m2'))} | {_f(r.get('extent_m'))} | "
+                     f"{r['lst_averaged_fom_mk']:.1f} | {_f(r.get('solve_s'), 0)} |")
+    bad = [r for r in rows if r.get("status") != "ok"]
+    md = [f"# {title}", ""]
+    if preamble:
+        md += [preamble, ""]
+    md += table
+    if bad:
+        md += ["", "## Not scored", ""] + [f"- **{r['name']}** ({r.get('status')}): {r.get('error', '')}" for r in bad]
+    if figs:
+        md += ["", "## Figures", ""] + [f"![{k}]({p.name})" for k, p in figs.items()]
+    paths["md"].write_text("\n".join(md) + "\n")
+    body = "".join(
+        f"<tr><td>{i}</td><td>{html.escape(r['name'])}</td><td>{r['shape']}</td><td>{_f(r.get('metal_area_m2'))}</td>"
+        f"<td>{_f(r.get('extent_m'))}</td><td>{r['lst_averaged_fom_mk']:.1f}</td></tr>"
+        for i, r in enumerate(ok, 1)
+    )
+    imgs = "".join(f'<figure><img src="{p.name}" style="max-width:100%"><figcaption>{k}</figcaption></figure>'
+                   for k, p in figs.items())
+    paths["html"].write_text(
+        f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title></head><body>"
+        f"<h1>{html.escape(title)}</h1><p>{html.escape(preamble)}</p><table border=1 cellpadding=4>"
+        "<tr><th>rank</th><th>candidate</th><th>shape</th><th>metal area (m²)</th><th>extent (m)</th>"
+        f"<th>LST-averaged FoM (mK)</th></tr>{body}</table>{imgs}</body></html>"
+    )
+    return paths
+
+
+def _f(v: Any, nd: int = 1) -> str:
+    return "-" if v is None else f"{v:.{nd}f}"
+
+
+def _figures(ok: list[dict[str, Any]], out: Path) -> dict[str, Path]:
+    from groundplane.cad import plot_outline
+
+    plt = _plt()
+    figs: dict[str, Path] = {}
+    shapes = [r for r in ok if r.get("shape") != "beam-file"]
+    if shapes:
+        n = len(shapes)
+        cols = min(n, 4)
+        nrows = int(np.ceil(n / cols))
+        fig, axes = plt.subplots(nrows, cols, figsize=(3.2 * cols, 3.2 * nrows), squeeze=False)
+        lim = max(r["extent_m"] for r in shapes) / 2 * 1.05
+        for ax, r in zip(axes.ravel(), shapes):
+            plot_outline(from_dict({"shape": r["shape"], **r["params"]}), ax)
+            ax.set_xlim(-lim, lim)
+            ax.set_ylim(-lim, lim)
+            ax.set_title(f"{r['name']}\n{r['metal_area_m2']:.0f} m$^2$, {r['lst_averaged_fom_mk']:.0f} mK", fontsize=8)
+            ax.set_xlabel("")
+            ax.set_ylabel("")
+        for ax in axes.ravel()[n:]:
+            ax.axis("off")
+        fig.tight_layout()
+        figs["outlines"] = out / "outlines.png"
+        fig.savefig(figs["outlines"], dpi=100)
+        plt.close(fig)
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    for r in ok:
+        ax.plot(r["lst_hours"], r["fom_mk"], label=f"{r['name']} ({r['lst_averaged_fom_mk']:.0f} mK)")
+    ax.set_yscale("log")
+    ax.set_xlabel("LST (h)")
+    ax.set_ylabel("FoM (mK)")
+    ax.set_xlim(0, 24)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    figs["fom_vs_lst"] = out / "fom_vs_lst.png"
+    fig.savefig(figs["fom_vs_lst"], dpi=100)
+    plt.close(fig)
+    fig, axes = plt.subplots(2, 2, figsize=(10, 6), sharex=True)
+    for ax, h in zip(axes.ravel(), RESIDUAL_LSTS_H):
+        for r in ok:
+            res = r.get("residuals_mk", {}).get(f"{h:g}")
+            if res:
+                ax.plot(r["fit_freqs_mhz"], res, label=r["name"])
+        ax.set_title(f"LST {h:g} h: residuals after LinLog", fontsize=9)
+        ax.set_ylabel("mK")
+        ax.grid(alpha=0.3)
+    axes[1, 0].set_xlabel("frequency (MHz)")
+    axes[1, 1].set_xlabel("frequency (MHz)")
+    axes[0, 0].legend(fontsize=6)
+    fig.tight_layout()
+    figs["residuals"] = out / "residuals.png"
+    fig.savefig(figs["residuals"], dpi=100)
+    plt.close(fig)
+    with_area = [r for r in ok if r.get("metal_area_m2") is not None]
+    if with_area:
+        fig, ax = plt.subplots(figsize=(6, 4.5))
+        for shape in sorted({r["shape"] for r in with_area}):
+            sel = [r for r in with_area if r["shape"] == shape]
+            ax.scatter([r["metal_area_m2"] for r in sel], [r["lst_averaged_fom_mk"] for r in sel], label=shape)
+            for r in sel:
+                ax.annotate(r["name"], (r["metal_area_m2"], r["lst_averaged_fom_mk"]), fontsize=6,
+                            xytext=(3, 3), textcoords="offset points")
+        ax.set_xlabel("metal area (m$^2$)")
+        ax.set_ylabel("LST-averaged FoM (mK)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        figs["fom_vs_area"] = out / "fom_vs_area.png"
+        fig.savefig(figs["fom_vs_area"], dpi=100)
+        plt.close(fig)
+    return figs

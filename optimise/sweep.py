@@ -1,0 +1,274 @@
+"""Design sweeps from a TOML file: candidates solved through the cache, scored, ranked.
+
+Config (all tables optional except at least one candidate)::
+
+    [solver]
+    mesh = 0.5              # plate grid spacing, m
+    wire_radius = 0.01
+    freqs = "40:100:1"
+    eps_r = 3.5
+    sigma = 0.02
+
+    [fom]
+    fit_band = [55, 97]
+    beta = 2.55
+    n_lst = 360
+
+    [[candidate]]
+    preset = "square-10"
+
+    [[candidate]]
+    name = "feko-candidate-7"
+    beam = ["exports/c7_0-90.ffe", "exports/c7_91-180.ffe"]   # a solver export joins the ranking
+    metal_area_m2 = 600
+
+    [[family]]              # every combination of the listed values
+    shape = "sawtooth"
+    side = [15, 20]
+    teeth_per_side = [3, 4]
+    tooth_base = 5
+    tooth_height = 5
+
+Resumable: each finished row is appended (and fsync'd) to ``DIR/results.jsonl``; a rerun
+skips rows already there, and a candidate interrupted mid-solve resumes from the solver's
+per-frequency cache. Nothing computed is lost, even on kill -9.
+"""
+from __future__ import annotations
+
+import itertools
+import json
+import os
+import sys
+import tomllib
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+
+from groundplane.design import Soil
+from groundplane.fom import FomSettings
+from groundplane.shapes import PRESETS, ShapeError, from_dict
+
+from .objective import Candidate, EvalSettings, evaluate, failed_row, row_key
+
+
+class ConfigError(ValueError):
+    """A sweep file that cannot be used; names the file and the entry."""
+
+
+def load_config(path: str | Path) -> tuple[list[Candidate], list[dict[str, Any]], EvalSettings]:
+    """Candidates, rows for invalid family members (kept in the report), and settings."""
+    from solvers.nec import MeshSettings, parse_freqs
+
+    path = Path(path)
+    try:
+        cfg = tomllib.loads(path.read_text())
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise ConfigError(f"{path}: {exc}") from None
+    unknown = set(cfg) - {"solver", "fom", "candidate", "family"}
+    if unknown:
+        raise ConfigError(f"{path}: unknown table(s) {sorted(unknown)}; expected solver, fom, candidate, family")
+    s = cfg.get("solver", {})
+    f = cfg.get("fom", {})
+    try:
+        mesh = MeshSettings(spacing=float(s.get("mesh", 0.5)), plate_wire_radius=float(s.get("wire_radius", 0.01)))
+        fom = FomSettings(
+            beta=float(f.get("beta", 2.55)), fit_band_mhz=tuple(f.get("fit_band", (55.0, 97.0))),
+            n_lst=int(f.get("n_lst", 360)), normalise=bool(f.get("normalise", False)),
+            antenna_azimuth_deg=float(f.get("antenna_azimuth", -7.0)),
+        )
+        settings = EvalSettings(
+            soil=Soil(float(s.get("eps_r", 3.5)), float(s.get("sigma", 0.02))), mesh=mesh,
+            freqs_mhz=tuple(parse_freqs(str(s.get("freqs", "40:100:1")))), fom=fom,
+        )
+    except (ValueError, TypeError) as exc:
+        raise ConfigError(f"{path}: [solver]/[fom]: {exc}") from None
+    candidates: list[Candidate] = []
+    invalid: list[dict[str, Any]] = []
+    for i, c in enumerate(cfg.get("candidate", [])):
+        where = f"{path}: [[candidate]] #{i + 1}"
+        try:
+            if "beam" in c:
+                beams = c["beam"] if isinstance(c["beam"], list) else [c["beam"]]
+                beams = [str((path.parent / b) if not Path(b).is_absolute() else b) for b in beams]
+                name = c.get("name") or Path(beams[0]).stem
+                area = c.get("metal_area_m2")
+                candidates.append(Candidate(name, beam_paths=tuple(beams), beam_format=c.get("format", "auto"),
+                                            metal_area_m2=None if area is None else float(area)))
+            elif "preset" in c:
+                candidates.append(Candidate(c.get("name", c["preset"]), plane=from_dict({"preset": c["preset"]})))
+            else:
+                params = {k: v for k, v in c.items() if k != "name"}
+                plane = from_dict(params)
+                candidates.append(Candidate(c.get("name", _auto_name(params)), plane=plane))
+        except (ShapeError, ValueError, TypeError) as exc:
+            raise ConfigError(f"{where}: {exc}") from None
+    for i, fam in enumerate(cfg.get("family", [])):
+        if "shape" not in fam:
+            raise ConfigError(f"{path}: [[family]] #{i + 1} needs 'shape'")
+        keys = [k for k in fam if k != "shape"]
+        grids = [fam[k] if isinstance(fam[k], list) else [fam[k]] for k in keys]
+        for combo in itertools.product(*grids):
+            params = {"shape": fam["shape"], **dict(zip(keys, combo))}
+            name = _auto_name(params)
+            try:
+                candidates.append(Candidate(name, plane=from_dict(params)))
+            except ShapeError as exc:  # an impossible member is reported, not fatal
+                invalid.append({"name": name, "status": "invalid", "error": str(exc), "shape": fam["shape"],
+                                "params": {k: v for k, v in params.items() if k != "shape"},
+                                "metal_area_m2": None, "extent_m": None, "lst_averaged_fom_mk": None})
+    if not candidates:
+        raise ConfigError(f"{path}: no candidates ([[candidate]] or [[family]] tables)")
+    names = [c.name for c in candidates]
+    dup = {n for n in names if names.count(n) > 1}
+    if dup:
+        raise ConfigError(f"{path}: candidate names must be unique; repeated: {sorted(dup)}")
+    return candidates, invalid, settings
+
+
+def _auto_name(params: dict[str, Any]) -> str:
+    for name, shape in PRESETS.items():
+        try:
+            if from_dict(params).key() == shape.key():
+                return name
+        except ShapeError:
+            break
+    return params["shape"] + "-" + "-".join(f"{v:g}" if isinstance(v, (int, float)) else str(v)
+                                            for k, v in params.items() if k != "shape")
+
+
+# ----------------------------------------------------------------------- results
+class ResultStore:
+    """Append-only JSON lines, one row a candidate; the last row of a key wins."""
+
+    def __init__(self, directory: str | Path) -> None:
+        self.dir = Path(directory)
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self.path = self.dir / "results.jsonl"
+
+    def rows(self) -> dict[str, dict[str, Any]]:
+        out: dict[str, dict[str, Any]] = {}
+        if not self.path.exists():
+            return out
+        with open(self.path) as fh:
+            for line in fh:
+                line = line.strip()
+                if not line:
+                    continue
+                try:
+                    row = json.loads(line)
+                except json.JSONDecodeError:
+                    continue  # a line torn by a kill: that candidate is redone from the solver cache
+                out[row["key"]] = row
+        return out
+
+    def append(self, row: dict[str, Any]) -> None:
+        with open(self.path, "a") as fh:
+            fh.write(json.dumps(row) + "\n")
+            fh.flush()
+            os.fsync(fh.fileno())
+
+
+def run_sweep(
+    candidates: list[Candidate],
+    settings: EvalSettings,
+    out_dir: str | Path,
+    *,
+    invalid: Iterable[dict[str, Any]] = (),
+    executor: str = "local",
+    scheduler: str | None = None,
+    progress: bool = True,
+    retry_failed: bool = False,
+) -> list[dict[str, Any]]:
+    """Evaluate every candidate not already in ``out_dir``; return all rows (this sweep's)."""
+    store = ResultStore(out_dir)
+    done = store.rows()
+    keys = {c.name: row_key(c, settings) for c in candidates}
+    todo = [c for c in candidates
+            if keys[c.name] not in done or (retry_failed and done[keys[c.name]].get("status") != "ok")]
+    if progress:
+        print(f"sweep: {len(candidates)} candidates, {len(candidates) - len(todo)} already done, "
+              f"{len(todo)} to solve -> {store.dir}", file=sys.stderr)
+    if executor == "local":
+        from tqdm import tqdm
+
+        for c in tqdm(todo, desc="candidates", unit="cand", disable=not progress):
+            row = evaluate(c, settings, progress=progress)
+            store.append({"key": keys[c.name], **row})
+    elif executor == "dask":
+        _run_dask(todo, settings, store, keys, scheduler, progress)
+    else:
+        raise ValueError(f"unknown executor '{executor}'; choose local or dask")
+    rows = store.rows()
+    result = [rows[keys[c.name]] for c in candidates if keys[c.name] in rows]
+    return result + [dict(r) for r in invalid]
+
+
+def _solve_on_worker(candidate: Candidate, settings: EvalSettings) -> tuple[str, float]:
+    """Dask task: solve (NEC in this worker process, never beside healpy) and return the
+    beam's cache path; scoring happens in the client."""
+    import time
+
+    from groundplane.design import Design
+    from solvers.cache import BeamCache
+    from solvers.nec import NecSolver
+
+    t0 = time.perf_counter()
+    beam = NecSolver(mesh=settings.mesh_settings(), workers=0, progress=False).solve(
+        Design(candidate.plane, settings.soil), settings.freqs_mhz)
+    return str(BeamCache().path(beam.meta["cache_key"])), time.perf_counter() - t0
+
+
+def _run_dask(todo, settings, store, keys, scheduler, progress) -> None:
+    """Candidates on a Dask distributed cluster (a local one when no scheduler is given)."""
+    from dask.distributed import Client, LocalCluster, as_completed
+
+    from groundplane.beam import Beam
+
+    from .objective import score
+
+    cluster = None
+    if scheduler:
+        client = Client(scheduler)
+    else:
+        # one NEC per worker process, one OpenMP thread each: the 2 cores run 2 candidates
+        cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                               env={"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"})
+        client = Client(cluster)
+    try:
+        files = [c for c in todo if c.plane is None]
+        for c in files:  # beam files need no solve
+            store.append({"key": keys[c.name], **evaluate(c, settings)})
+        solve = [c for c in todo if c.plane is not None]
+        futures = {client.submit(_solve_on_worker, c, settings, pure=False): c for c in solve}
+        for fut in as_completed(futures):
+            c = futures[fut]
+            try:
+                path, secs = fut.result()
+                row = score(c, Beam.load(path), settings, secs)
+            except Exception as exc:  # noqa: BLE001 - recorded in the row
+                row = failed_row(c, f"{type(exc).__name__}: {exc}")
+            store.append({"key": keys[c.name], **row})
+            if progress:
+                print(f"  {c.name}: {row.get('lst_averaged_fom_mk')}", file=sys.stderr)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def summary_table(rows: list[dict[str, Any]]) -> str:
+    ok = sorted([r for r in rows if r.get("status") == "ok"], key=lambda r: r["lst_averaged_fom_mk"])
+    lines = [f"{'rank':>4} {'candidate':24s} {'metal (m^2)':>11} {'extent (m)':>10} {'FoM (mK)':>9}"]
+    for i, r in enumerate(ok, 1):
+        area = f"{r['metal_area_m2']:.1f}" if r.get("metal_area_m2") is not None else "-"
+        ext = f"{r['extent_m']:.1f}" if r.get("extent_m") is not None else "-"
+        lines.append(f"{i:4d} {r['name'][:24]:24s} {area:>11} {ext:>10} {r['lst_averaged_fom_mk']:9.1f}")
+    for r in rows:
+        if r.get("status") != "ok":
+            lines.append(f"   - {r['name'][:24]:24s} {r.get('status')}: {r.get('error', '')[:80]}")
+    return "\n".join(lines)
+
+
+def finite(x: Any) -> bool:
+    return isinstance(x, (int, float)) and bool(np.isfinite(x))
