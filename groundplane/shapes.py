@@ -11,7 +11,6 @@ import hashlib
 import json
 import math
 from dataclasses import asdict, dataclass, fields
-from functools import cached_property
 from typing import Any, ClassVar
 
 import numpy as np

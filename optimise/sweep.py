@@ -43,8 +43,6 @@ import tomllib
 from pathlib import Path
 from typing import Any, Iterable
 
-import numpy as np
-
 from groundplane.design import Soil
 from groundplane.fom import FomSettings
 from groundplane.shapes import PRESETS, ShapeError, from_dict
@@ -269,6 +267,3 @@ def summary_table(rows: list[dict[str, Any]]) -> str:
             lines.append(f"   - {r['name'][:24]:24s} {r.get('status')}: {r.get('error', '')[:80]}")
     return "\n".join(lines)
 
-
-def finite(x: Any) -> bool:
-    return isinstance(x, (int, float)) and bool(np.isfinite(x))

@@ -7,7 +7,7 @@ import pytest
 from groundplane.beam import Beam, BeamFormatError
 from solvers import detect_format, load_beam
 
-from .conftest import SHARED_BEAMS, shared_file
+from .conftest import shared_file
 
 DATA = Path(__file__).parent / "data"
 QUADRANTS = ["0-90", "91-180", "181-270", "271-360"]

@@ -8,14 +8,13 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from groundplane.beam import Beam
-from groundplane.fom import FomSettings
-from optimise.objective import Candidate, EvalSettings
+
+from optimise.objective import EvalSettings
 from optimise.report import write_report
 from optimise.search import FAMILIES, optimise
 from optimise.sweep import ConfigError, ResultStore, load_config, run_sweep
