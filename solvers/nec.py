@@ -261,10 +261,16 @@ def plate_edges(plane: GroundPlane, spacing: float, merge_fraction: float = 0.3)
     poly = plane.outline()
     x0, y0, x1, y1 = poly.bounds
 
+    # Grid lines closer to the bounding box than the merge tolerance only touch the outline at
+    # its extreme vertices (a tooth tip, a corner) and would leave a wire running through that
+    # vertex ("WIRE #5 INTERSECTS WIRE #6" on sawtooth-15-12 at 1 m, whose tips sit on a grid
+    # line); every crossing they make would be merged away anyway, so they are dropped.
+    margin = merge_fraction * spacing
+
     def offsets(lo: float, hi: float) -> np.ndarray:
         k = np.arange(math.floor(lo / spacing - 0.5), math.ceil(hi / spacing + 0.5) + 1)
         v = (k + 0.5) * spacing
-        return v[(v > lo) & (v < hi)]
+        return v[(v > lo + margin) & (v < hi - margin)]
 
     lines = [LineString([(x, y0 - 1), (x, y1 + 1)]) for x in offsets(x0, x1)]
     lines += [LineString([(x0 - 1, y), (x1 + 1, y)]) for y in offsets(y0, y1)]
@@ -307,7 +313,51 @@ def plate_edges(plane: GroundPlane, spacing: float, merge_fraction: float = 0.3)
     idx = roots[inv.ravel()].reshape(-1, 2)
     idx = idx[idx[:, 0] != idx[:, 1]]
     idx = np.unique(np.sort(idx, axis=1), axis=0)
-    return nodes[idx]
+    merged = nodes[idx]
+    # Moving nodes can lay one wire along another or through another's end (narrow teeth at a
+    # coarse mesh); re-noding the merged set with GEOS splits those into shared-end pieces.
+    if not len(_wire_grid_defects(merged)[0]):
+        return merged
+    renoded = unary_union(list(map(LineString, merged)))
+    geoms = renoded.geoms if isinstance(renoded, MultiLineString) else [renoded]
+    out = [(a, b) for g in geoms for a, b in zip(np.asarray(g.coords)[:-1], np.asarray(g.coords)[1:])]
+    e = np.round(np.asarray(out, dtype=float), 9)
+    return e[np.hypot(*(e[:, 1] - e[:, 0]).T) > 1e-9]
+
+
+def _wire_grid_defects(edges: np.ndarray, tol: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs (i, j) of wires that cross, overlap or touch away from a shared end."""
+    import shapely
+    from shapely.strtree import STRtree
+
+    edges = np.asarray(edges, dtype=float)
+    lines = shapely.linestrings(edges)
+    i, j = STRtree(lines).query(lines, predicate="intersects")
+    keep = i < j
+    i, j = i[keep], j[keep]
+    inter = shapely.intersection(lines[i], lines[j])
+    point = shapely.get_type_id(inter) == 0  # anything else (line, multipoint) is an overlap
+    p = shapely.get_coordinates(inter[point])  # one coordinate per single-point intersection
+
+    def at_end(ends: np.ndarray) -> np.ndarray:
+        return np.min(np.hypot(*(ends - p[:, None, :]).transpose(2, 0, 1)), axis=1) < tol
+
+    ok = np.zeros(len(i), dtype=bool)
+    ok[point] = at_end(edges[i[point]]) & at_end(edges[j[point]])
+    return i[~ok], j[~ok]
+
+
+def check_wire_grid(edges: np.ndarray, label: str = "plate") -> None:
+    """Raise SolveError unless wires meet only at shared ends: NEC refuses a wire crossing or
+    touching another's interior, and says only "WIRE #5 INTERSECTS WIRE #6"; this names where."""
+    i, j = _wire_grid_defects(edges)
+    if len(i):
+        a, b = edges[i[0]], edges[j[0]]
+        raise SolveError(
+            f"{label}: {len(i)} pair(s) of plate wires meet away from their ends, e.g. "
+            f"({a[0][0]:.3f},{a[0][1]:.3f})-({a[1][0]:.3f},{a[1][1]:.3f}) and "
+            f"({b[0][0]:.3f},{b[0][1]:.3f})-({b[1][0]:.3f},{b[1][1]:.3f}) m; NEC would refuse this mesh"
+        )
 
 
 def _is_corner(poly, p: np.ndarray) -> bool:
@@ -327,7 +377,9 @@ def build_model(design: Design, mesh: MeshSettings) -> NecModel:
     assert isinstance(design.ground, Soil)
     model = NecModel(ground="soil", eps_r=design.ground.eps_r, sigma=design.ground.sigma)
     zp = mesh.plate_height
-    for (ax, ay), (bx, by) in plate_edges(design.plane, mesh.spacing, mesh.merge_fraction):
+    edges = plate_edges(design.plane, mesh.spacing, mesh.merge_fraction)
+    check_wire_grid(edges, f"{design.label()} at a {mesh.spacing:g} m mesh")
+    for (ax, ay), (bx, by) in edges:
         length = math.hypot(bx - ax, by - ay)
         model.add((ax, ay, zp), (bx, by, zp), mesh.plate_wire_radius, max(1, math.ceil(length / mesh.spacing - 1e-9)))
     add_blade(model, design.antenna, zp + design.antenna.height, mesh)

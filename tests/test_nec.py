@@ -12,6 +12,7 @@ from solvers.nec import (
     MeshSettings,
     NecSolver,
     build_model,
+    check_wire_grid,
     check_engine,
     mirror_quadrant,
     plate_edges,
@@ -78,19 +79,28 @@ def test_plate_mesh_nodes_crossings_and_follows_outline():
         nodes = np.unique(np.round(e.reshape(-1, 2), 6), axis=0)
         for v in np.asarray(poly.exterior.coords)[:-1]:
             assert np.min(np.hypot(*(nodes - v).T)) < 1e-6
-        # no two edges cross except at shared ends (every crossing is a wire end)
-        from shapely.geometry import LineString
-        from shapely.strtree import STRtree
+        # no two edges cross or overlap except at shared ends (every crossing is a wire end)
+        check_wire_grid(e, repr(shape))
 
-        lines = [LineString(x) for x in e]
-        tree = STRtree(lines)
-        for i, ln in enumerate(lines[:400]):
-            for j in tree.query(ln):
-                if j != i:
-                    inter = ln.intersection(lines[j])
-                    if not inter.is_empty:
-                        assert inter.geom_type == "Point"
-                        assert min(Point(p).distance(inter) for p in ln.coords) < 1e-6
+
+def test_plate_mesh_valid_where_grid_lines_meet_outline_vertices():
+    """Regression: sawtooth-15-12 at 1 m put a grid line through its tooth tips and NEC
+    refused the mesh (WIRE #5 INTERSECTS WIRE #6); a sweep of sizes and spacings must mesh."""
+    from groundplane.shapes import Sawtooth
+
+    cases = [(PRESETS["sawtooth-15-12"], 1.0), (Square(15.0), 1.0), (Plus(5.0), 1.0)]
+    rng = np.random.default_rng(1)
+    for _ in range(25):
+        side = float(rng.choice([8.0, 10.0, 12.5, 15.0])) + float(rng.uniform(-1e-9, 1e-9))
+        teeth = int(rng.integers(2, 6))
+        shape = Sawtooth(side, teeth, side / teeth, float(rng.choice([2.5, 4.0, 5.0])))
+        cases.append((shape, float(rng.choice([0.5, 0.7, 1.0, 1.25]))))
+    for shape, sp in cases:
+        check_wire_grid(plate_edges(shape, sp), f"{shape!r} at {sp} m")
+    # and the check itself fires on a wire running through another's end
+    bad = np.array([[[0.0, -1.0], [0.0, 1.0]], [[0.0, 0.0], [1.0, 0.0]]])
+    with pytest.raises(nec.SolveError, match="away from their ends"):
+        check_wire_grid(bad, "t")
 
 
 def test_mirror_quadrant_matches_full_solve_of_symmetric_plate():
