@@ -33,6 +33,8 @@ def register(sub) -> None:
     r.add_argument("what", choices=["design-study", "soil-sweep"])
     _eval_args(r)
     r.add_argument("-o", "--out", default="results")
+    r.add_argument("--compare-mesh", type=float, metavar="SPACING",
+                   help="design-study: also solve at this plate spacing and report how rows and conclusions move")
     r.set_defaults(func=cmd_reproduce)
 
 
@@ -152,7 +154,12 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 
     settings = _settings(args)
     if args.what == "design-study":
-        table = design_study(settings, args.out, _command(), progress=sys.stderr.isatty())
+        compare = None
+        if args.compare_mesh is not None:
+            from dataclasses import replace
+
+            compare = replace(settings, mesh=replace(settings.mesh, spacing=args.compare_mesh))
+        table = design_study(settings, args.out, _command(), progress=sys.stderr.isatty(), compare=compare)
         for t in table:
             print(f"{t['preset']:16s} paper {t['paper_fom_mk']:6.0f}  ours {t['our_fom_mk']}")
     else:

@@ -93,6 +93,11 @@ def candidate_beam(candidate: Candidate, settings: EvalSettings, progress: bool 
     return beam, time.perf_counter() - t0
 
 
+def _solver_cpu_s(beam: Beam) -> float | None:
+    secs = beam.meta.get("seconds_per_frequency")
+    return None if secs is None else round(float(np.sum(secs)), 2)
+
+
 def score(candidate: Candidate, beam: Beam, settings: EvalSettings, seconds: float) -> dict[str, Any]:
     """The result row of a candidate whose beam is known."""
     result = figure_of_merit(beam, settings.fom)
@@ -117,6 +122,9 @@ def score(candidate: Candidate, beam: Beam, settings: EvalSettings, seconds: flo
         "fit_freqs_mhz": result.freqs_mhz[result.fit_mask].tolist(),
         "residuals_mk": residuals,
         "solve_s": round(seconds, 2),
+        # what the solve cost, from the beam's own per-frequency timings: a cache hit has
+        # solve_s ~ 0 but still reports this (wall time is about this over the worker count)
+        "solver_cpu_s": _solver_cpu_s(beam),
         "n_segments": beam.meta.get("n_segments"),
         "beam_cache_key": beam.meta.get("cache_key"),
         "source": beam.meta.get("source"),

@@ -207,7 +207,9 @@ def validation(out: Path = RESULTS, mesh: MeshSettings = MeshSettings()) -> None
         items[f"{name} on soil"] = {"rows": [
             ("LST-averaged FoM (mK)", _fom(beam), paper),
             ("zenith gain at 75 MHz (dBi)", _zenith_db(beam), "-"),
-            (f"wall time of the solve, {beam.meta['n_segments']} segments, 2 processes (s)", secs, "-"),
+            # from the beam's own timings, so a cache hit still reports what the solve cost
+            (f"solver time summed over {beam.freqs_mhz.size} frequencies, {beam.meta['n_segments']} segments "
+             "(s; wall time on 2 processes is about half)", float(sum(beam.meta["seconds_per_frequency"])), "-"),
         ]}
         write()
 
