@@ -69,6 +69,11 @@ class MeshSettings:
     blade_wire_radius: float = 0.002
     merge_fraction: float = 0.3
     gain_calibration: str = "pec"  # "pec" or "none"
+    # Optional finer grid under the antenna, where the near field is strongest and a coarse
+    # grid leaks most power into the soil: spacing / refine_factor inside |x|, |y| <=
+    # refine_half_width (snapped out to a coarse grid line). 0 / 1 = uniform grid.
+    refine_half_width: float = 0.0
+    refine_factor: int = 1
 
     def __post_init__(self) -> None:
         if not (self.spacing > 0 and math.isfinite(self.spacing)):
@@ -85,10 +90,24 @@ class MeshSettings:
             raise ValueError(f"blade_cells {self.blade_cells}: need >= 2 cells, an even number across (feed at y = 0)")
         if self.gain_calibration not in ("pec", "none"):
             raise ValueError("gain_calibration must be 'pec' or 'none'")
+        if not (isinstance(self.refine_factor, int) and self.refine_factor >= 1):
+            raise ValueError(f"refine_factor must be an integer >= 1, got {self.refine_factor!r}")
+        if not (self.refine_half_width >= 0 and math.isfinite(self.refine_half_width)):
+            raise ValueError(f"refine_half_width must be >= 0 m, got {self.refine_half_width}")
+        if self.refined and not (self.plate_wire_radius < self.spacing / self.refine_factor / 2):
+            raise ValueError(f"plate wire radius {self.plate_wire_radius} m must be under half the refined "
+                             f"spacing {self.spacing / self.refine_factor:g} m")
+
+    @property
+    def refined(self) -> bool:
+        return self.refine_factor > 1 and self.refine_half_width > 0
 
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d["blade_cells"] = list(self.blade_cells)
+        if not self.refined:  # a uniform grid keeps the cache keys it had before refinement existed
+            d.pop("refine_half_width")
+            d.pop("refine_factor")
         return d
 
 
@@ -251,9 +270,12 @@ def add_blade(model: NecModel, antenna: BladeDipole, z: float, mesh: MeshSetting
     return feed
 
 
-def plate_edges(plane: GroundPlane, spacing: float, merge_fraction: float = 0.3) -> np.ndarray:
+def plate_edges(plane: GroundPlane, spacing: float, merge_fraction: float = 0.3,
+                refine_half_width: float = 0.0, refine_factor: int = 1) -> np.ndarray:
     """Wire-grid edges [n, 2, 2] (metres) meshing the outline: grid lines clipped to it plus
-    the outline, noded so every crossing is an edge end, close nodes merged."""
+    the outline, noded so every crossing is an edge end, close nodes merged; optionally a
+    grid ``refine_factor`` times finer inside the central square of half-width
+    ``refine_half_width`` (its border is a coarse grid line, so fine lines end on a wire)."""
     from scipy.spatial import cKDTree
     from shapely.geometry import LineString, MultiLineString, Point
     from shapely.ops import unary_union
@@ -274,6 +296,15 @@ def plate_edges(plane: GroundPlane, spacing: float, merge_fraction: float = 0.3)
 
     lines = [LineString([(x, y0 - 1), (x, y1 + 1)]) for x in offsets(x0, x1)]
     lines += [LineString([(x0 - 1, y), (x1 + 1, y)]) for y in offsets(y0, y1)]
+    if refine_factor > 1 and refine_half_width > 0:
+        # snap the region out to the next coarse line; fine lines subdivide the coarse cells
+        h = (math.ceil(refine_half_width / spacing - 0.5) + 0.5) * spacing
+        k = np.arange(-math.ceil(h / spacing) - 1, math.ceil(h / spacing) + 1)
+        fine = ((k + 0.5) * spacing)[:, None] + np.arange(1, refine_factor)[None, :] * spacing / refine_factor
+        fine = fine.ravel()[np.abs(fine.ravel()) < h - 1e-9]
+        lines += [LineString([(v, -h), (v, h)]) for v in fine]
+        lines += [LineString([(-h, v), (h, v)]) for v in fine]
+        lines += [LineString([(-h, v), (h, v)]) for v in (-h, h)] + [LineString([(v, -h), (v, h)]) for v in (-h, h)]
     # Node whole grid lines against the outline (true crossings node robustly, clipped
     # ends would not), then keep the pieces that lie inside or on the outline.
     net = unary_union(lines + [poly.exterior])
@@ -296,7 +327,7 @@ def plate_edges(plane: GroundPlane, spacing: float, merge_fraction: float = 0.3)
             i = parent[i]
         return i
 
-    tol = merge_fraction * spacing
+    tol = merge_fraction * spacing / (refine_factor if refine_factor > 1 and refine_half_width > 0 else 1)
     pairs = np.array(sorted(cKDTree(nodes).query_pairs(tol)), dtype=int).reshape(-1, 2)
     on_outline = np.array([poly.exterior.distance(Point(p)) < 1e-9 for p in nodes])
     order = np.argsort(np.hypot(*(nodes[pairs[:, 0]] - nodes[pairs[:, 1]]).T)) if len(pairs) else []
@@ -377,7 +408,7 @@ def build_model(design: Design, mesh: MeshSettings) -> NecModel:
     assert isinstance(design.ground, Soil)
     model = NecModel(ground="soil", eps_r=design.ground.eps_r, sigma=design.ground.sigma)
     zp = mesh.plate_height
-    edges = plate_edges(design.plane, mesh.spacing, mesh.merge_fraction)
+    edges = plate_edges(design.plane, mesh.spacing, mesh.merge_fraction, mesh.refine_half_width, mesh.refine_factor)
     check_wire_grid(edges, f"{design.label()} at a {mesh.spacing:g} m mesh")
     for (ax, ay), (bx, by) in edges:
         length = math.hypot(bx - ax, by - ay)

@@ -168,3 +168,19 @@ def test_cli_solve_and_fom(tmp_path, capsys, monkeypatch):
     assert "give no shape" in capsys.readouterr().err
     assert main(["solve", "-o", str(out)]) == 2
     assert "needs a ground plane" in capsys.readouterr().err
+
+
+def test_graded_plate_mesh_is_finer_under_the_antenna_and_valid():
+    coarse = plate_edges(Square(10.0), 1.0)
+    graded = plate_edges(Square(10.0), 1.0, 0.3, 2.0, 4)
+    check_wire_grid(graded, "graded square-10")
+    mids = (graded[:, 0] + graded[:, 1]) / 2
+    lengths = np.hypot(*(graded[:, 1] - graded[:, 0]).T)
+    centre = np.all(np.abs(mids) < 2.5, axis=1)  # 2.0 m snaps out to the coarse line at 2.5 m
+    assert lengths[centre].max() == pytest.approx(0.25) and lengths[~centre].max() == pytest.approx(1.0)
+    assert len(graded) > len(coarse)
+    # a uniform grid keeps its cache identity: no refinement fields in the key
+    assert "refine_factor" not in MeshSettings().as_dict()
+    assert MeshSettings(refine_half_width=2.0, refine_factor=2).as_dict()["refine_factor"] == 2
+    with pytest.raises(ValueError, match="refine_factor"):
+        MeshSettings(refine_factor=0)
