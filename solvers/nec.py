@@ -10,7 +10,10 @@ Modelling choices (and why):
   Fortran NEC-2: -3.22 dBi at zenith) runs before the first soil solve in a process and a
   wrong engine is refused.
 * Blade: each panel a rectangular wire grid (``blade_cells`` cells, 2 mm wires), fed by
-  one segment of the same radius across the 4.4 cm gap. No balun, top plate or shield.
+  one segment of the same radius across the 4.4 cm gap. No balun, top plate or shield:
+  a prototype balun (two grounded 1 cm tubes under the feed) moved the FoM over PEC from
+  126.7 to 129.8 mK and a 24 x 18 blade to 129.5 mK, so neither explains the gap to the
+  paper's 61.8 mK (widths unchanged within 0.4 deg).
 * Absolute gain: NEC's input power at this feed is too high for practical blade grids
   (mean gain over PEC below 2: results/feed_calibration.md, from
   ``python -m solvers.studies feed-calibration``; the level converges slowly with the
@@ -23,8 +26,16 @@ Modelling choices (and why):
   spacing/2 so the mesh is mirror-symmetric about both axes) clipped to the outline,
   plus wires along the outline itself (teeth included). All are noded with shapely so
   every crossing is a wire end; nodes closer than ``merge_fraction * spacing`` are merged
-  to avoid ultra-short segments. The plate sits ``plate_height`` (5 cm) above the soil:
-  NEC-2 cannot put wires on the interface.
+  to avoid ultra-short segments; grid lines within that distance of the outline's
+  bounding box are dropped (they would only graze its extreme vertices), and a merged
+  mesh in which wires overlap or touch away from their ends is re-noded. Every mesh is
+  checked before NEC sees it (``check_wire_grid``). The plate sits ``plate_height``
+  (5 cm) above the soil: NEC-2 cannot put wires on the interface; wires must stay 3 radii
+  up, which caps the radius (thicker wires would leak less).
+* The grid leaks: at 1 m spacing ~20 % of the power goes into the soil through it and the
+  FoM is biased high (results/mesh_convergence.md, results/feko_40mhz.md). An optional
+  finer grid under the antenna (``refine_half_width``, ``refine_factor``) targets where
+  the near field is strongest; it is off by default.
 * Far field: theta 0-90, phi 0-359 (1 deg). For a candidate mirror-symmetric about both
   axes only phi 0-90 is computed and mirrored. Below the horizon nothing is returned.
 """
