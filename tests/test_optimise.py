@@ -226,6 +226,9 @@ def test_design_study_table_conclusions_compare_mesh_and_retry(tmp_path, monkeyp
                                                            "n_segments": 100}), 0.0
 
     monkeypatch.setattr(objective, "candidate_beam", fake_beam)
+    import optimise.reproduce as reproduce
+
+    monkeypatch.setattr(reproduce, "pec_reference_fom", lambda settings, progress=False: 123.6)
     fine = EvalSettings(mesh=MeshSettings(spacing=0.7), freqs_mhz=tuple(f), fom=replace(EvalSettings().fom, n_lst=24))
     coarse = replace(fine, mesh=MeshSettings(spacing=1.0))
     table = design_study(fine, tmp_path, "groundplane reproduce design-study", progress=False)
@@ -240,5 +243,6 @@ def test_design_study_table_conclusions_compare_mesh_and_retry(tmp_path, monkeyp
     assert "our FoM at 1 m (mK)" in md and "Same conclusions at 1 m" in md
     assert md.count("(i) larger area, lower FoM within a shape: **holds**") == 2
     assert "refining the mesh 1 -> 0.7 m moved it" in md
+    assert "ours 123.6 mK vs the paper's 61.8 mK (x2.00)" in md
     rows = (tmp_path / "design_study_runs" / "results.jsonl").read_text().splitlines()
     assert len(rows) == 2 * 9 + 1  # 9 fine (one failed then retried) + 9 coarse, nothing redone
