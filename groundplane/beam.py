@@ -161,6 +161,20 @@ class Beam:
         total = float(self.meta.get("phi_rotation_deg", 0.0)) + phi_offset_deg
         return Beam(self.freqs_mhz, self.theta_deg, self.phi_deg, gain, {**self.meta, "phi_rotation_deg": total})
 
+    def frequency_smoothed(self, degree: int) -> "Beam":
+        """The beam with each direction's G(nu) replaced by its least-squares Chebyshev fit
+        of ``degree`` over the band: a diagnostic that separates narrow-band structure
+        (solver artefacts such as wire-grid cavity resonances) from broadband chromaticity."""
+        n = self.freqs_mhz.size
+        if not (isinstance(degree, int) and 1 <= degree < n - 1):
+            raise ValueError(f"smoothing degree must be an integer in 1..{n - 2} for {n} frequencies, got {degree!r}")
+        lo, hi = self.freqs_mhz.min(), self.freqs_mhz.max()
+        x = (2 * self.freqs_mhz - lo - hi) / (hi - lo)
+        flat = self.gain.reshape(n, -1)
+        fit = np.polynomial.chebyshev.chebval(x, np.polynomial.chebyshev.chebfit(x, flat, degree)).T
+        gain = np.clip(fit, 0.0, None).reshape(self.gain.shape)
+        return Beam(self.freqs_mhz, self.theta_deg, self.phi_deg, gain, {**self.meta, "frequency_smoothed_degree": degree})
+
     def with_meta(self, **extra: Any) -> "Beam":
         return Beam(self.freqs_mhz, self.theta_deg, self.phi_deg, self.gain, {**self.meta, **extra})
 

@@ -139,6 +139,8 @@ def cmd_fom(args: argparse.Namespace) -> int:
     from .fom import chromaticity_report, figure_of_merit
 
     beam = load_beam(args.paths, args.format)
+    if args.smooth_frequency:
+        beam = beam.frequency_smoothed(args.smooth_frequency)
     settings = _fom_settings(args)
     correction = load_beam(args.beam_correction, "auto") if args.beam_correction else None
     result = figure_of_merit(beam, settings, correction_beam=correction, progress=sys.stderr.isatty())
@@ -189,6 +191,9 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--beam-correction", metavar="MODEL_BEAM",
                    help="divide spectra by the beam-correction factor of this model beam first")
     f.add_argument("--metrics", action="store_true", help="also the secondary chromaticity metrics")
+    f.add_argument("--smooth-frequency", type=int, metavar="DEG",
+                   help="diagnostic: score the beam after a degree-DEG Chebyshev fit of G(nu) per direction, "
+                        "which removes narrow-band solver artefacts (and any real structure that narrow)")
     f.add_argument("--json", action="store_true", help="print a JSON object")
     f.add_argument("--plot", metavar="FILE.png", help="FoM vs LST and residual spectra")
     f.set_defaults(func=cmd_fom)

@@ -93,6 +93,17 @@ def candidate_beam(candidate: Candidate, settings: EvalSettings, progress: bool 
     return beam, time.perf_counter() - t0
 
 
+SMOOTHING_DEGREE = 12  # Chebyshev degree over the band: keeps structure down to a ~10 MHz period
+
+
+def smoothed_fom_mk(beam: Beam, settings: EvalSettings) -> float | None:
+    """LST-averaged FoM of the beam after ``Beam.frequency_smoothed(SMOOTHING_DEGREE)``;
+    None when the band has too few frequencies for that fit."""
+    if beam.freqs_mhz.size < 3 * SMOOTHING_DEGREE:
+        return None
+    return float(figure_of_merit(beam.frequency_smoothed(SMOOTHING_DEGREE), settings.fom).lst_averaged_fom_mk)
+
+
 def _solver_cpu_s(beam: Beam) -> float | None:
     secs = beam.meta.get("seconds_per_frequency")
     return None if secs is None else round(float(np.sum(secs)), 2)
@@ -117,6 +128,9 @@ def score(candidate: Candidate, beam: Beam, settings: EvalSettings, seconds: flo
         "metal_area_m2": plane.metal_area if plane else candidate.metal_area_m2,
         "extent_m": plane.extent if plane else None,
         "lst_averaged_fom_mk": fom_mk,
+        # diagnostic: the FoM once narrow-band structure (solver artefacts) is smoothed out
+        # of G(nu); see results/spectral_artefacts.md
+        "fom_smoothed_mk": smoothed_fom_mk(beam, settings),
         "fom_mk": (result.fom * 1e3).round(4).tolist(),
         "lst_hours": result.lst_hours.round(6).tolist(),
         "fit_freqs_mhz": result.freqs_mhz[result.fit_mask].tolist(),

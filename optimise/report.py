@@ -42,20 +42,22 @@ def write_report(rows: list[dict[str, Any]], out_dir: str | Path, title: str = "
     with open(paths["csv"], "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["rank", "name", "status", "shape", "params", "metal_area_m2", "extent_m",
-                    "lst_averaged_fom_mk", "solve_s", "error"])
+                    "lst_averaged_fom_mk", "fom_smoothed_mk", "solve_s", "error"])
         for i, r in enumerate(rows, 1):
             w.writerow([i if r.get("status") == "ok" else "", r["name"], r.get("status"), r.get("shape"),
                         json.dumps(r.get("params")), r.get("metal_area_m2"), r.get("extent_m"),
-                        r.get("lst_averaged_fom_mk"), r.get("solve_s"), r.get("error", "")])
+                        r.get("lst_averaged_fom_mk"), r.get("fom_smoothed_mk"), r.get("solve_s"),
+                        r.get("error", "")])
     figs = {}
     if ok:
         figs = _figures(ok, out)
     paths.update(figs)
-    table = ["| rank | candidate | shape | metal area (m^2) | extent (m) | LST-averaged FoM (mK) | solve (s) |",
-             "|---|---|---|---|---|---|---|"]
+    table = ["| rank | candidate | shape | metal area (m^2) | extent (m) | LST-averaged FoM (mK) | "
+             "FoM, G(nu) smoothed (mK) | solve (s) |",
+             "|---|---|---|---|---|---|---|---|"]
     for i, r in enumerate(ok, 1):
         table.append(f"| {i} | {r['name']} | {r['shape']} | {_f(r.get('metal_area_m2'))} | {_f(r.get('extent_m'))} | "
-                     f"{r['lst_averaged_fom_mk']:.1f} | {_f(r.get('solve_s'), 0)} |")
+                     f"{r['lst_averaged_fom_mk']:.1f} | {_f(r.get('fom_smoothed_mk'))} | {_f(r.get('solve_s'), 0)} |")
     bad = [r for r in rows if r.get("status") != "ok"]
     md = [f"# {title}", ""]
     if preamble:

@@ -158,3 +158,19 @@ def test_cli_fom_reports_bad_fit_band(capsys):
     rc = main(["fom", str(EXAMPLE_BEAM)])
     assert rc == 2
     assert "fit band 55-97 MHz" in capsys.readouterr().err
+
+
+def test_frequency_smoothing_keeps_broadband_structure_and_removes_narrow_spikes():
+    f = np.arange(40.0, 101.0)
+    th, ph = np.arange(91.0), np.arange(0.0, 360.0, 10.0)
+    broad = (1 + 0.1 * np.cos(2 * np.pi * (f - 40) / 20.0))[:, None, None] * np.cos(np.radians(th))[None, :, None] ** 2
+    g = np.repeat(broad, ph.size, axis=2)
+    smooth = Beam(f, th, ph, g).frequency_smoothed(12)
+    assert np.abs(smooth.gain - g).max() < 2e-3 * g.max()  # a 20 MHz ripple survives
+    spiked = g * (1 + 0.01 * (f == 73.0))[:, None, None]
+    out = Beam(f, th, ph, spiked).frequency_smoothed(12)
+    i = int(np.argmax(f == 73.0))
+    assert np.abs(out.gain[i] - g[i]).max() < 0.3 * np.abs(spiked[i] - g[i]).max()  # the spike mostly goes
+    assert out.meta["frequency_smoothed_degree"] == 12
+    with pytest.raises(ValueError, match="smoothing degree"):
+        Beam(f, th, ph, g).frequency_smoothed(61)
