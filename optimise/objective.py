@@ -99,7 +99,7 @@ SMOOTHING_DEGREE = 12  # Chebyshev degree over the band: keeps structure down to
 def smoothed_fom_mk(beam: Beam, settings: EvalSettings) -> float | None:
     """LST-averaged FoM of the beam after ``Beam.frequency_smoothed(SMOOTHING_DEGREE)``;
     None when the band has too few frequencies for that fit."""
-    if beam.freqs_mhz.size < 3 * SMOOTHING_DEGREE:
+    if beam.freqs_mhz.size < 2 * SMOOTHING_DEGREE + 1:
         return None
     return float(figure_of_merit(beam.frequency_smoothed(SMOOTHING_DEGREE), settings.fom).lst_averaged_fom_mk)
 
