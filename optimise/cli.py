@@ -41,6 +41,9 @@ def register(sub) -> None:
 def _eval_args(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("solver and scoring")
     g.add_argument("--mesh", type=float, default=0.5, help="plate grid spacing m (default 0.5)")
+    g.add_argument("--plate-height", type=float, default=0.05, help="plate height above the soil m (default 0.05)")
+    g.add_argument("--refine-centre", type=float, nargs=2, metavar=("HALF_WIDTH", "FACTOR"),
+                   help="a grid FACTOR times finer inside |x|,|y| <= HALF_WIDTH m")
     g.add_argument("--freqs", default="40:100:1", help="MHz, LO:HI:STEP (default 40:100:1)")
     g.add_argument("--eps-r", type=float, default=3.5)
     g.add_argument("--sigma", type=float, default=0.02)
@@ -54,7 +57,10 @@ def _settings(args: argparse.Namespace):
 
     from .objective import EvalSettings
 
-    return EvalSettings(soil=Soil(args.eps_r, args.sigma), mesh=MeshSettings(spacing=args.mesh),
+    from solvers.cli import _refine
+
+    mesh = MeshSettings(spacing=args.mesh, plate_height=args.plate_height, **_refine(args.refine_centre))
+    return EvalSettings(soil=Soil(args.eps_r, args.sigma), mesh=mesh,
                         freqs_mhz=tuple(parse_freqs(args.freqs)), fom=FomSettings(n_lst=args.n_lst))
 
 

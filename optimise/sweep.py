@@ -5,6 +5,8 @@ Config (all tables optional except at least one candidate)::
     [solver]
     mesh = 0.5              # plate grid spacing, m
     wire_radius = 0.01
+    plate_height = 0.05     # m above the soil
+    refine_centre = [2.0, 2]  # optional: a 2x finer grid inside |x|,|y| <= 2 m
     freqs = "40:100:1"
     eps_r = 3.5
     sigma = 0.02
@@ -68,8 +70,15 @@ def load_config(path: str | Path) -> tuple[list[Candidate], list[dict[str, Any]]
         raise ConfigError(f"{path}: unknown table(s) {sorted(unknown)}; expected solver, fom, candidate, family")
     s = cfg.get("solver", {})
     f = cfg.get("fom", {})
+    for table, given, known in (("solver", s, SOLVER_KEYS), ("fom", f, FOM_KEYS)):
+        if set(given) - known:  # a misspelt key would otherwise be silently ignored
+            raise ConfigError(f"{path}: [{table}]: unknown key(s) {sorted(set(given) - known)}; "
+                              f"expected some of {sorted(known)}")
     try:
-        mesh = MeshSettings(spacing=float(s.get("mesh", 0.5)), plate_wire_radius=float(s.get("wire_radius", 0.01)))
+        half, factor = s.get("refine_centre", (0.0, 1))
+        mesh = MeshSettings(spacing=float(s.get("mesh", 0.5)), plate_wire_radius=float(s.get("wire_radius", 0.01)),
+                            plate_height=float(s.get("plate_height", 0.05)),
+                            refine_half_width=float(half), refine_factor=int(factor))
         fom = FomSettings(
             beta=float(f.get("beta", 2.55)), fit_band_mhz=tuple(f.get("fit_band", (55.0, 97.0))),
             n_lst=int(f.get("n_lst", 360)), normalise=bool(f.get("normalise", False)),
@@ -122,6 +131,10 @@ def load_config(path: str | Path) -> tuple[list[Candidate], list[dict[str, Any]]
     if dup:
         raise ConfigError(f"{path}: candidate names must be unique; repeated: {sorted(dup)}")
     return candidates, invalid, settings
+
+
+SOLVER_KEYS = {"mesh", "wire_radius", "plate_height", "refine_centre", "freqs", "eps_r", "sigma"}
+FOM_KEYS = {"beta", "fit_band", "n_lst", "normalise", "antenna_azimuth"}
 
 
 def _auto_name(params: dict[str, Any]) -> str:

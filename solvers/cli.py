@@ -19,6 +19,8 @@ def register(sub) -> None:
     s.add_argument("--mesh", type=float, default=0.5, metavar="SPACING", help="plate wire-grid spacing m (default 0.5)")
     s.add_argument("--wire-radius", type=float, default=0.01, help="plate wire radius m (default 0.01)")
     s.add_argument("--plate-height", type=float, default=0.05, help="plate height above soil m (default 0.05)")
+    s.add_argument("--refine-centre", type=float, nargs=2, metavar=("HALF_WIDTH", "FACTOR"),
+                   help="a grid FACTOR times finer inside |x|,|y| <= HALF_WIDTH m (where the near field is)")
     s.add_argument("--blade-cells", type=int, nargs=2, default=(12, 10), metavar=("NX", "NY"))
     s.add_argument("--no-gain-calibration", action="store_true",
                    help="use NEC's input power as is (see solvers/nec.py for why the default calibrates)")
@@ -48,6 +50,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
         spacing=args.mesh, plate_wire_radius=args.wire_radius, plate_height=args.plate_height,
         blade_cells=tuple(args.blade_cells),
         gain_calibration="none" if args.no_gain_calibration else "pec",
+        **_refine(args.refine_centre),
     )
     freqs = parse_freqs(args.freqs)
     if args.deck:
@@ -61,3 +64,15 @@ def cmd_solve(args: argparse.Namespace) -> int:
     print(f"wrote {out}: {design.label()}, {beam.meta['n_segments']} segments, {freqs.size} frequencies "
           f"({secs:.0f} s of solver time; cache key {beam.meta['cache_key']})")
     return 0
+
+
+def _refine(values) -> dict:
+    """--refine-centre HALF_WIDTH FACTOR as MeshSettings fields (FACTOR must be whole)."""
+    if not values:
+        return {}
+    half, factor = values
+    if factor != int(factor):
+        from groundplane.cli import CLIError
+
+        raise CLIError(f"--refine-centre: FACTOR must be a whole number, got {factor:g}")
+    return {"refine_half_width": float(half), "refine_factor": int(factor)}

@@ -59,6 +59,7 @@ tooth_height = 1
     ("[bogus]\n", "unknown table"),
     ("", "no candidates"),
     ("[[candidate]]\nshape = 'square'\nside = -1\n", r"#1: Square: side must be a positive"),
+    ("fit_bnad = [55, 97]\n", r"\[fom\]: unknown key\(s\) \['fit_bnad'\]"),  # lands in CHEAP's [fom]
 ])
 def test_bad_config_names_the_entry(tmp_path, body, msg):
     with pytest.raises(ConfigError, match=msg):
@@ -246,3 +247,18 @@ def test_design_study_table_conclusions_compare_mesh_and_retry(tmp_path, monkeyp
     assert "ours 123.6 mK vs the paper's 61.8 mK (x2.00)" in md
     rows = (tmp_path / "design_study_runs" / "results.jsonl").read_text().splitlines()
     assert len(rows) == 2 * 9 + 1  # 9 fine (one failed then retried) + 9 coarse, nothing redone
+
+
+def test_config_and_cli_take_plate_height_and_a_finer_centre(tmp_path):
+    from groundplane.cli import CLIError
+    from solvers.cli import _refine
+
+    cfg = tmp_path / "s.toml"
+    cfg.write_text("[solver]\nmesh = 1.0\nplate_height = 0.03\nrefine_centre = [2.0, 4]\n"
+                   "[[candidate]]\npreset = 'square-10'\n")
+    _, _, settings = load_config(cfg)
+    mesh = settings.mesh_settings()
+    assert (mesh.plate_height, mesh.refine_half_width, mesh.refine_factor) == (0.03, 2.0, 4)
+    assert _refine([2.0, 4.0]) == {"refine_half_width": 2.0, "refine_factor": 4}
+    with pytest.raises(CLIError, match="whole number"):
+        _refine([2.0, 2.5])
