@@ -224,7 +224,8 @@ def _design_md(table: list[dict], settings: EvalSettings, command: str,
             plate = "" if r0 is None else (
                 f"; x{t['ratio'] / r0:.2f} beyond the antenna model's x{r0:.2f}, "
                 + ("so the plate model is the larger part" if t["ratio"] / r0 > 1.5 else
-                   "so most of the gap is the antenna model (a)"))
+                   "so most of the gap is the antenna model (a)" if t["ratio"] / r0 >= 1 else
+                   "so the antenna model (a) alone accounts for all of it"))
             smooth = ("" if t.get("smoothed_fom_mk") is None else
                       f" With G(nu) smoothed: {t['smoothed_fom_mk']:.1f} mK "
                       f"(x{t['smoothed_fom_mk'] / t['paper_fom_mk']:.2f}).")
