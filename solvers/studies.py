@@ -57,7 +57,7 @@ CONVERGENCE_75 = [0.25, 0.15]  # zenith gain at 75 MHz only (a full band takes 1
 RADII = [0.005, 0.01, 0.015]  # wire radius (m) at 0.5 m spacing
 # graded meshes (coarse spacing, half-width of the finer centre, refinement factor): the
 # soil loss through a coarse grid is concentrated under the antenna
-GRADED = [(0.5, 2.5, 2), (1.0, 2.0, 4), (0.5, 1.5, 2)]
+GRADED = [(0.5, 2.5, 2, True), (1.0, 2.0, 4, False), (0.5, 1.5, 2, False)]  # last: full band?
 
 
 def mesh_convergence(out: Path = RESULTS) -> None:
@@ -93,7 +93,7 @@ def mesh_convergence(out: Path = RESULTS) -> None:
     plan += [(s, 0.01, True, 0.0, 1) for s in CONVERGENCE_FULL if s != 0.5]
     plan += [(0.5, r, False, 0.0, 1) for r in RADII if r != 0.01]
     plan += [(s, 0.01, False, 0.0, 1) for s in CONVERGENCE_75]
-    plan += [(s, 0.01, False, hw, k) for s, hw, k in GRADED]
+    plan += [(s, 0.01, full, hw, k) for s, hw, k, full in GRADED]
     for spacing, radius, full, hw, k in plan:
         mesh = MeshSettings(spacing=spacing, plate_wire_radius=radius, refine_half_width=hw, refine_factor=k)
         beam, secs = _solve(design, mesh, FREQS if full else [75.0])
