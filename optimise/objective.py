@@ -104,7 +104,8 @@ def smoothed_fom_mk(beam: Beam, settings: EvalSettings) -> float | None:
     return float(figure_of_merit(beam.frequency_smoothed(SMOOTHING_DEGREE), settings.fom).lst_averaged_fom_mk)
 
 
-def _solver_cpu_s(beam: Beam) -> float | None:
+def solver_cpu_s(beam: Beam) -> float | None:
+    """NEC time summed over frequencies, from the beam's own timings (None for exports)."""
     secs = beam.meta.get("seconds_per_frequency")
     return None if secs is None else round(float(np.sum(secs)), 2)
 
@@ -138,7 +139,7 @@ def score(candidate: Candidate, beam: Beam, settings: EvalSettings, seconds: flo
         "solve_s": round(seconds, 2),
         # what the solve cost, from the beam's own per-frequency timings: a cache hit has
         # solve_s ~ 0 but still reports this (wall time is about this over the worker count)
-        "solver_cpu_s": _solver_cpu_s(beam),
+        "solver_cpu_s": solver_cpu_s(beam),
         "n_segments": beam.meta.get("n_segments"),
         "beam_cache_key": beam.meta.get("cache_key"),
         "source": beam.meta.get("source"),

@@ -9,12 +9,10 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from groundplane.design import Soil
 from groundplane.shapes import preset
 
-from .objective import Candidate, EvalSettings
+from .objective import SMOOTHING_DEGREE, Candidate, EvalSettings
 from .report import write_report
 from .sweep import run_sweep
 
@@ -72,43 +70,32 @@ def _study_table(settings: EvalSettings, out: Path, progress: bool, report: bool
     for name, paper in DESIGN_STUDY:
         r = rows.get(name, {})
         ours = r.get("lst_averaged_fom_mk") if r.get("status") == "ok" else None
+        smoothed, cpu = _backfill(r, settings)
         table.append({
             "preset": name, "metal_area_m2": preset(name).metal_area, "paper_fom_mk": paper,
             "our_fom_mk": None if ours is None else round(ours, 1),
             "ratio": None if ours is None else round(ours / paper, 3),
-            "smoothed_fom_mk": None if ours is None else _smoothed(r, settings),
-            "n_segments": r.get("n_segments"), "solve_s": r.get("solve_s"), "solver_cpu_s": _solver_cpu_s(r),
+            "smoothed_fom_mk": smoothed if ours is not None else None,
+            "n_segments": r.get("n_segments"), "solve_s": r.get("solve_s"), "solver_cpu_s": cpu,
             "status": r.get("status", "not run"), "error": r.get("error", ""),
         })
     return table
 
 
-def _smoothed(row: dict, settings: EvalSettings) -> float | None:
-    """The row's FoM with G(nu) smoothed; rows written before that field existed are scored
-    from the cached beam."""
-    if row.get("fom_smoothed_mk") is not None:
-        return round(row["fom_smoothed_mk"], 1)
-    if not row.get("beam_cache_key"):
-        return None
-    from solvers.cache import BeamCache
+def _backfill(row: dict, settings: EvalSettings) -> tuple[float | None, float | None]:
+    """(smoothed FoM, NEC time) of a row; rows written before those fields existed are
+    scored from their cached beam, loaded once."""
+    smoothed, cpu = row.get("fom_smoothed_mk"), row.get("solver_cpu_s")
+    if (smoothed is None or cpu is None) and row.get("beam_cache_key"):
+        from solvers.cache import BeamCache
 
-    from .objective import smoothed_fom_mk
+        from .objective import smoothed_fom_mk, solver_cpu_s
 
-    beam = BeamCache().get(row["beam_cache_key"])
-    value = None if beam is None else smoothed_fom_mk(beam, settings)
-    return None if value is None else round(value, 1)
-
-
-def _solver_cpu_s(row: dict) -> float | None:
-    """NEC time summed over frequencies; rows written before that field existed read it
-    from the cached beam."""
-    if row.get("solver_cpu_s") is not None or not row.get("beam_cache_key"):
-        return row.get("solver_cpu_s")
-    from solvers.cache import BeamCache
-
-    beam = BeamCache().get(row["beam_cache_key"])
-    secs = None if beam is None else beam.meta.get("seconds_per_frequency")
-    return None if secs is None else round(float(np.sum(secs)), 2)
+        beam = BeamCache().get(row["beam_cache_key"])
+        if beam is not None:
+            smoothed = smoothed_fom_mk(beam, settings) if smoothed is None else smoothed
+            cpu = solver_cpu_s(beam) if cpu is None else cpu
+    return (None if smoothed is None else round(smoothed, 1)), cpu
 
 
 def _fom(table: list[dict], name: str) -> float | None:
@@ -200,7 +187,8 @@ def _design_md(table: list[dict], settings: EvalSettings, command: str,
         lines += ["", f"Same conclusions at {osp:g} m, to show whether they survive mesh refinement:", ""]
         lines += conclusions(other)
     if any(t.get("smoothed_fom_mk") is not None for t in table):
-        lines += ["", f"Same conclusions on the FoM with G(nu) smoothed (degree-12 Chebyshev fit per direction, "
+        lines += ["", f"Same conclusions on the FoM with G(nu) smoothed (degree-{SMOOTHING_DEGREE} Chebyshev fit "
+                      f"per direction, "
                       f"removing the narrow-band resonances of the wire grid with the ground 5 cm below it; "
                       f"`results/spectral_artefacts.md`), at {sp:g} m:", ""]
         lines += conclusions(table, "smoothed_fom_mk")

@@ -11,9 +11,10 @@ Modelling choices (and why):
   wrong engine is refused.
 * Blade: each panel a rectangular wire grid (``blade_cells`` cells, 2 mm wires), fed by
   one segment of the same radius across the 4.4 cm gap. No balun, top plate or shield:
-  a prototype balun (two grounded 1 cm tubes under the feed) moved the FoM over PEC from
-  126.7 to 129.8 mK and a 24 x 18 blade to 129.5 mK, so neither explains the gap to the
-  paper's 61.8 mK (widths unchanged within 0.4 deg).
+  a grounded balun (two 1 cm tubes under the feed) moves the FoM over PEC from 126.7 to
+  129.8 mK and a 24 x 18 blade to 129.5 mK, so neither explains the gap to the paper's
+  61.8 mK (widths within 0.4 deg; results/blade_over_pec.md, from
+  ``python -m solvers.studies blade-over-pec``).
 * Absolute gain: NEC's input power at this feed is too high for practical blade grids
   (mean gain over PEC below 2: results/feed_calibration.md, from
   ``python -m solvers.studies feed-calibration``; the level converges slowly with the
@@ -527,6 +528,12 @@ class NecSolver:
             "freqs_mhz": [round(float(f), 9) for f in freqs_mhz],
         }
         return hashlib.sha256(json.dumps(ident, sort_keys=True).encode()).hexdigest()[:32]
+
+    def cached(self, design: Design, freqs_mhz: Iterable[float] = np.arange(40.0, 101.0)) -> Beam | None:
+        """The cached beam of this solve, or None; never solves."""
+        from .cache import BeamCache
+
+        return BeamCache().get(self.cache_key(design, np.asarray(list(freqs_mhz), dtype=float)))
 
     def solve(self, design: Design, freqs_mhz: Iterable[float] = np.arange(40.0, 101.0)) -> Beam:
         from .cache import BeamCache

@@ -6,6 +6,7 @@ against the paper (SPEC section 4).
     .venv/bin/python -m solvers.studies feed-calibration  # -> results/feed_calibration.md
     .venv/bin/python -m solvers.studies feko-40mhz        # -> results/feko_40mhz.{md,png} (needs ../shared)
     .venv/bin/python -m solvers.studies spectral-artefacts  # -> results/spectral_artefacts.{md,png}
+    .venv/bin/python -m solvers.studies blade-over-pec    # -> results/blade_over_pec.md
 
 Every solve goes through the beam cache, so an interrupted run resumes where it stopped
 (re-run the same command); the markdown is rewritten after each finished item.
@@ -291,7 +292,6 @@ FEKO_CASES = [("square-10", 1.0, 0.0, 1), ("square-10", 0.7, 0.0, 1), ("square-1
 def feko_40mhz(out: Path = RESULTS, feko_dir: Path = FEKO_DIR) -> None:
     """Our NEC beams at 40 MHz against the FEKO low-band-over-soil export in ../shared (the
     only full-wave beam of this antenna we have): where and by how much the wire grid differs."""
-    from .cache import BeamCache
     from .loaders import load_beam
 
     files = sorted(Path(feko_dir).glob("feko_lowband_soil_40MHz_*.ffe"))
@@ -312,7 +312,7 @@ def feko_40mhz(out: Path = RESULTS, feko_dir: Path = FEKO_DIR) -> None:
     for name, sp, hw, k in FEKO_CASES:
         mesh = MeshSettings(spacing=sp, refine_half_width=hw, refine_factor=k)
         design = Design(PRESETS[name], Soil())
-        beam = BeamCache().get(NecSolver(mesh=mesh).cache_key(design, FREQS))
+        beam = NecSolver(mesh=mesh).cached(design, FREQS)
         if beam is None:  # no full-band solve cached: solve 40 MHz alone
             beam, _ = _solve(design, mesh, [40.0])
         label = f"NEC {name}, {sp:g} m" + (f", {sp / k:g} m inside {hw:g} m" if mesh.refined else "")
@@ -381,15 +381,10 @@ def spectral_artefacts(out: Path = RESULTS) -> None:
     the plate height."""
     from dataclasses import replace as dc_replace
 
-    from .cache import BeamCache
     from .nec import build_model, engine_call
     from optimise.reproduce import DESIGN_STUDY
 
     paper = dict(DESIGN_STUDY)
-    cache = BeamCache()
-
-    def cached(design: Design, mesh: MeshSettings):
-        return cache.get(NecSolver(mesh=mesh).cache_key(design, FREQS))
 
     def narrow_rms(beam) -> float:
         return float(np.std(beam.gain - beam.frequency_smoothed(12).gain) / np.mean(beam.gain))
@@ -418,7 +413,7 @@ def spectral_artefacts(out: Path = RESULTS) -> None:
     cases += [("extended", Design(PRESETS["extended"], Soil()), 0.5, 82)]
     rows = []
     for label, design, sp, ref in cases:
-        beam = cached(design, MeshSettings(spacing=sp))
+        beam = NecSolver(mesh=MeshSettings(spacing=sp)).cached(design, FREQS)
         if beam is None:
             continue
         fom = [_fom(beam), _fom(beam.frequency_smoothed(12)), _fom(beam.frequency_smoothed(8))]
@@ -480,10 +475,54 @@ def spectral_artefacts(out: Path = RESULTS) -> None:
     (out / "spectral_artefacts.md").write_text("\n".join(lines) + "\n")
 
 
+# ------------------------------------------------------ the antenna model over PEC
+def _calibrated_band(model, freqs) -> np.ndarray:
+    """Engine process: a blade-over-PEC model's calibrated gain [f, 91, 360], frequency by
+    frequency exactly as NecSolver does it (the model is its own calibration reference)."""
+    from .nec import _solve_one, mirror_quadrant
+
+    return mirror_quadrant(np.stack([_solve_one((model, model, float(f), 91))[1] for f in freqs]))
+
+
+def blade_over_pec(out: Path = RESULTS) -> None:
+    """Is the gap to the paper's 61.8 mK over infinite PEC the blade mesh or the missing
+    balun? The default blade, a finer one, and the default one with a grounded balun (two
+    1 cm tubes from the panels' feed edges down to the ground, as the Roberts balun's
+    outer conductors are)."""
+    from .nec import engine_call, pec_reference_model
+
+    pec = Design(None, InfinitePEC())
+    lines = ["# The blade over infinite PEC: blade mesh and balun", "",
+             "Command: `.venv/bin/python -m solvers.studies blade-over-pec` (cached solves; the balun variant "
+             "re-solves, ~2 min).", "",
+             "| model | segments | E width at 75 MHz (deg) | H width (deg) | LST-averaged FoM (mK) |",
+             "|---|---|---|---|---|"]
+
+    def row(label: str, beam) -> None:
+        lines.append(f"| {label} | {beam.meta.get('n_segments', '-')} | {beam.beam_width_3db(75, 0):.1f} | "
+                     f"{beam.beam_width_3db(75, 90):.1f} | {_fom(beam):.1f} |")
+        (out / "blade_over_pec.md").write_text("\n".join(lines) + "\n")
+
+    for cells in ((12, 10), (24, 18)):
+        beam, _ = _solve(pec, MeshSettings(blade_cells=cells))
+        row(f"{cells[0]} x {cells[1]} blade", beam)
+    model = pec_reference_model(pec, MeshSettings())
+    for sign in (1.0, -1.0):  # the tubes join the panels' inner edges at the feed
+        x = sign * pec.antenna.gap / 2
+        model.add((x, 0.0, 0.0), (x, 0.0, pec.antenna.height), 0.01, 10)
+    from groundplane.beam import Beam
+
+    gain = engine_call(_calibrated_band, model, FREQS)
+    row("12 x 10 blade + grounded balun tubes",
+        Beam(FREQS, np.arange(91.0), np.arange(360.0), gain, {"n_segments": model.n_segments}))
+    lines += ["", "The paper's FEKO model (balun, top plate, shield, solid panels) gives 61.8 mK and 72 / 110 deg."]
+    (out / "blade_over_pec.md").write_text("\n".join(lines) + "\n")
+
+
 def main() -> None:
     p = argparse.ArgumentParser(prog="python -m solvers.studies")
     studies = {"validation": validation, "mesh-convergence": mesh_convergence, "feed-calibration": feed_calibration,
-               "feko-40mhz": feko_40mhz, "spectral-artefacts": spectral_artefacts}
+               "feko-40mhz": feko_40mhz, "spectral-artefacts": spectral_artefacts, "blade-over-pec": blade_over_pec}
     p.add_argument("study", choices=sorted(studies))
     p.add_argument("-o", "--out", type=Path, default=RESULTS)
     a = p.parse_args()
