@@ -4,6 +4,9 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any
 
+from . import paper
+from .errors import SettingsError
+
 
 @dataclass(frozen=True)
 class BladeDipole:
@@ -13,16 +16,17 @@ class BladeDipole:
     the panels span x in [gap/2, gap/2 + length] and its mirror, at z = ``height``.
     """
 
-    panel_length: float = 1.252
-    panel_width: float = 0.964
-    gap: float = 0.044
-    height: float = 1.04
-    azimuth_deg: float = -7.0  # excitation axis, from North through East
+    # NOTE: SPEC section 1 (corrected) puts 0.964 m along the axis; this model still has
+    # the 1.252 m side along it, as every committed result was computed.
+    panel_length: float = paper.PANEL_ACROSS_AXIS_M
+    panel_width: float = paper.PANEL_ALONG_AXIS_M
+    gap: float = paper.FEED_GAP_M
+    height: float = paper.PANEL_HEIGHT_M
 
     def __post_init__(self) -> None:
         for k, v in asdict(self).items():
-            if k != "azimuth_deg" and not (isinstance(v, (int, float)) and v > 0):
-                raise ValueError(f"BladeDipole: {k} must be positive, got {v!r}")
+            if not (isinstance(v, (int, float)) and v > 0):
+                raise SettingsError(f"BladeDipole: {k} must be positive, got {v!r}")
 
     @property
     def tip_to_tip(self) -> float:

@@ -17,16 +17,21 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .errors import BeamFormatError, UserInputError
+from .files import atomic_path
 
-class BeamFormatError(ValueError):
-    """A beam file or array that is malformed, truncated or inconsistent."""
+__all__ = ["Beam", "BeamFormatError", "READER_GROUP"]
+
+READER_GROUP = "groundplane.beam_readers"
+"""Entry-point group of beam-file readers: ``name = "module:function"`` where
+``function(paths, format) -> Beam``. The distribution registers ``solvers.io:load_beam``
+(every vendor format); the core itself reads only the native ``.npz``."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -109,13 +114,6 @@ class Beam:
             dphi = 0.5 * (nxt - prv)
         return np.clip(band, 0.0, None)[:, None] * dphi[None, :]
 
-    def at_frequency(self, freq_mhz: float) -> np.ndarray:
-        """Gain [theta, phi] at one of the beam's frequencies."""
-        idx = np.flatnonzero(np.isclose(self.freqs_mhz, freq_mhz))
-        if idx.size == 0:
-            raise KeyError(f"{freq_mhz} MHz is not one of the beam's frequencies")
-        return self.gain[idx[0]]
-
     def cut(self, phi_deg: float) -> np.ndarray:
         """Gain [freq, theta] in the vertical plane at azimuth ``phi_deg`` (nearest sample)."""
         d = np.abs((self.phi_deg - phi_deg + 180) % 360 - 180)
@@ -153,10 +151,10 @@ class Beam:
         if self.phi_deg.size < 2 or not np.allclose(step, step[0]) or not np.isclose(
             self.phi_deg.size * step[0], 360.0
         ):
-            raise ValueError("rotation needs a uniform full-circle phi grid")
+            raise UserInputError("rotation needs a uniform full-circle phi grid")
         shift = phi_offset_deg / step[0]
         if not np.isclose(shift, round(shift)):
-            raise ValueError(f"phi offset {phi_offset_deg} deg is not a multiple of the {step[0]} deg grid")
+            raise UserInputError(f"phi offset {phi_offset_deg} deg is not a multiple of the {step[0]} deg grid")
         gain = np.roll(self.gain, -int(round(shift)), axis=2)
         total = float(self.meta.get("phi_rotation_deg", 0.0)) + phi_offset_deg
         return Beam(self.freqs_mhz, self.theta_deg, self.phi_deg, gain, {**self.meta, "phi_rotation_deg": total})
@@ -167,7 +165,7 @@ class Beam:
         (solver artefacts such as wire-grid cavity resonances) from broadband chromaticity."""
         n = self.freqs_mhz.size
         if not (isinstance(degree, int) and 1 <= degree < n - 1):
-            raise ValueError(f"smoothing degree must be an integer in 1..{n - 2} for {n} frequencies, got {degree!r}")
+            raise UserInputError(f"smoothing degree must be an integer in 1..{n - 2} for {n} frequencies, got {degree!r}")
         lo, hi = self.freqs_mhz.min(), self.freqs_mhz.max()
         x = (2 * self.freqs_mhz - lo - hi) / (hi - lo)
         flat = self.gain.reshape(n, -1)
@@ -182,10 +180,7 @@ class Beam:
     def save(self, path: str | os.PathLike) -> Path:
         """Write the native ``.npz`` file atomically (temp file + rename)."""
         path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp.npz")
-        os.close(fd)
-        try:
+        with atomic_path(path, suffix=".tmp.npz") as tmp:
             np.savez_compressed(
                 tmp,
                 freqs_mhz=self.freqs_mhz,
@@ -194,31 +189,64 @@ class Beam:
                 gain=self.gain,
                 meta=np.array(json.dumps(self.meta, sort_keys=True, default=_json_default)),
             )
-            os.chmod(tmp, 0o644)
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
         return path
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "Beam":
-        """Read a native ``.npz`` beam (never unpickles)."""
+        """Read a native ``.npz`` beam (never unpickles).
+
+        Raises
+        ------
+        BeamFormatError
+            Not a readable native beam; the message names the file.
+        """
         path = Path(path)
+        if path.is_dir():
+            raise BeamFormatError(f"{path}: is a directory, not a beam file")
         try:
             with np.load(path, allow_pickle=False) as z:
                 missing = {"freqs_mhz", "theta_deg", "phi_deg", "gain"} - set(z.files)
                 if missing:
                     raise BeamFormatError(f"{path}: missing arrays {sorted(missing)} in native beam file")
                 meta = json.loads(str(z["meta"])) if "meta" in z.files else {}
+                if not isinstance(meta, dict):
+                    raise BeamFormatError(f"{path}: 'meta' must be a JSON object, got {type(meta).__name__}")
                 arrays = {k: np.array(z[k]) for k in ("freqs_mhz", "theta_deg", "phi_deg", "gain")}
         except BeamFormatError:
             raise
-        except (OSError, ValueError, json.JSONDecodeError) as exc:
-            raise BeamFormatError(f"{path}: not a readable groundplane .npz beam ({exc})") from exc
+        except FileNotFoundError:
+            raise BeamFormatError(f"{path}: no such beam file") from None
+        except Exception as exc:  # zipfile/zlib/numpy raise many kinds on a damaged file
+            raise BeamFormatError(f"{path}: not a readable groundplane .npz beam ({type(exc).__name__}: {exc})") from exc
         meta.setdefault("source", str(path))
-        return cls(meta=meta, **arrays)
+        try:
+            return cls(meta=meta, **arrays)
+        except BeamFormatError as exc:
+            raise BeamFormatError(f"{path}: {exc}") from None
+
+    @classmethod
+    def from_file(cls, paths: str | os.PathLike | list, format: str = "auto") -> "Beam":
+        """A beam from any supported file: a solver export (FEKO, CST, HFSS, ...) or the
+        native ``.npz``; several files may make one beam (FEKO azimuth quadrants).
+
+        Readers are found through the ``groundplane.beam_readers`` entry points, so the
+        core needs no solver code; without any, only the native format is read.
+        """
+        reader = _reader()
+        if reader is None:
+            single = [paths] if isinstance(paths, (str, os.PathLike)) else list(paths)
+            if format not in ("auto", "npz") or len(single) != 1:
+                raise UserInputError(f"no reader for beam format '{format}' is installed")
+            return cls.load(single[0])
+        return reader(paths, format)
+
+
+def _reader():
+    from importlib.metadata import entry_points
+
+    for ep in sorted(entry_points(group=READER_GROUP), key=lambda e: e.name):
+        return ep.load()
+    return None
 
 
 def _half_power_angle(theta: np.ndarray, gain: np.ndarray) -> float:

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from .antenna import EDGES_LOW_BAND, BladeDipole
+from .errors import UserInputError
 from .shapes import GroundPlane
 
 DEFAULT_THICKNESS_M = 0.002
@@ -30,7 +31,7 @@ def _metres_in_step() -> None:
 
 def _check_thickness(thickness: float) -> None:
     if not (np.isfinite(thickness) and thickness > 0):
-        raise ValueError(f"plate thickness must be a positive number of metres, got {thickness}")
+        raise UserInputError(f"plate thickness must be a positive number of metres, got {thickness}")
 
 
 def plate_solid(shape: GroundPlane, thickness: float = DEFAULT_THICKNESS_M):
@@ -123,11 +124,9 @@ def export_stl(shape: GroundPlane, path: str | Path, thickness: float = DEFAULT_
 
 def draw_outline(shape: GroundPlane, path: str | Path, title: str | None = None) -> Path:
     """A dimensioned drawing (SVG or PNG by suffix): outline, overall size, metal area."""
-    import matplotlib
+    from .plots import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig, ax = plt.subplots(figsize=(6, 6))
@@ -170,9 +169,9 @@ def export(shape: GroundPlane, path: str | Path, thickness: float = DEFAULT_THIC
     if suffix in (".step", ".stp"):
         return export_step(shape, path, thickness, with_antenna)
     if with_antenna:
-        raise ValueError(f"--with-antenna is only for STEP output, not {suffix}")
+        raise UserInputError(f"--with-antenna is only for STEP output, not {suffix}")
     if suffix == ".stl":
         return export_stl(shape, path, thickness)
     if suffix in (".svg", ".png"):
         return draw_outline(shape, path)
-    raise ValueError(f"{path}: unknown output format '{suffix}'; use .step, .stl, .svg or .png")
+    raise UserInputError(f"{path}: unknown output format '{suffix}'; use .step, .stl, .svg or .png")

@@ -1,27 +1,34 @@
 """A candidate: ground-plane shape + antenna + soil, hashable with a canonical JSON form
-(the solver cache key is built from it)."""
+(the solver cache key is built from it), and where the antenna points on the sky."""
 from __future__ import annotations
 
 import json
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
+from . import paper
 from .antenna import EDGES_LOW_BAND, BladeDipole
+from .errors import SettingsError
+from .options import option
 from .shapes import GroundPlane, to_dict
+
+EXCITATION_AZIMUTH_DEG = paper.EXCITATION_AZIMUTH_DEG
+"""The antenna's excitation axis on the site, from North through East (deg). It does not
+change the beam in the antenna frame, only where the sky is: the FoM takes it from here."""
 
 
 @dataclass(frozen=True)
 class Soil:
     """A lossy half-space (SPEC section 2: MRO soil eps_r 3.5, sigma 0.02 S/m)."""
 
-    eps_r: float = 3.5
-    sigma: float = 0.02
+    eps_r: float = option(paper.MRO_EPS_R, "soil relative permittivity")
+    sigma: float = option(paper.MRO_SIGMA_S_PER_M, "soil conductivity (S/m)")
 
     def __post_init__(self) -> None:
         if not (self.eps_r >= 1.0):
-            raise ValueError(f"Soil: eps_r must be >= 1, got {self.eps_r}")
+            raise SettingsError(f"Soil: eps_r must be >= 1, got {self.eps_r}")
         if not (self.sigma >= 0.0):
-            raise ValueError(f"Soil: sigma must be >= 0 S/m, got {self.sigma}")
+            raise SettingsError(f"Soil: sigma must be >= 0 S/m, got {self.sigma}")
 
 
 @dataclass(frozen=True)
@@ -39,7 +46,7 @@ class Design:
 
     def __post_init__(self) -> None:
         if self.plane is None and not isinstance(self.ground, InfinitePEC):
-            raise ValueError("a design over soil needs a ground-plane shape (or use ground=InfinitePEC())")
+            raise SettingsError("a design over soil needs a ground-plane shape (or use ground=InfinitePEC())")
 
     def as_dict(self) -> dict[str, Any]:
         g = {"type": "pec"} if isinstance(self.ground, InfinitePEC) else {"type": "soil", **asdict(self.ground)}

@@ -8,12 +8,16 @@ RMS of the residuals over the fit band, per LST and averaged over LST.
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
 
+from . import paper
 from .beam import Beam
+from .design import EXCITATION_AZIMUTH_DEG
+from .errors import BeamFormatError, SettingsError, UserInputError
+from .options import option
 from .sky import MRO, T_CMB_K, HorizonSky, Site, horizon_sky, lst_grid
 
 
@@ -39,25 +43,28 @@ class Absorption:
 class FomSettings:
     """Everything the FoM depends on besides the beam. Defaults are the paper's."""
 
-    beta: float = 2.55
-    fit_band_mhz: tuple[float, float] = (55.0, 97.0)
-    nu0_mhz: float = 75.0
-    n_terms: int = 5
-    antenna_azimuth_deg: float = -7.0
+    beta: float = option(paper.SKY_SPECTRAL_INDEX, "sky spectral index")
+    fit_band_mhz: tuple[float, float] = option(paper.FIT_BAND_MHZ, "LinLog fit band (MHz)", flag="--fit-band",
+                                               metavar=("LO", "HI"))
+    nu0_mhz: float = option(paper.LINLOG_NU0_MHZ, "LinLog reference frequency (MHz)", flag="--nu0")
+    n_terms: int = option(paper.LINLOG_TERMS, "LinLog terms", flag="--terms")
+    antenna_azimuth_deg: float = option(EXCITATION_AZIMUTH_DEG, "excitation axis azimuth from North through East "
+                                        "(deg)", flag="--antenna-azimuth", metavar="DEG")
     site: Site = MRO
-    n_lst: int = 360
-    normalise: bool = False
-    subtract_cmb: bool = False
-    absorption: Absorption | None = None
+    n_lst: int = option(360, "LST bins over 24 h")
+    normalise: bool = option(False, "divide by the beam integral (EDGES pipeline) instead of 4 pi")
+    subtract_cmb: bool = option(False, "remove 2.725 K from the map before scaling it")
+    absorption: Absorption | None = option(None, "add the Bowman et al. 2018 absorption feature to the sky",
+                                           switch=Absorption)
 
     def __post_init__(self) -> None:
         lo, hi = self.fit_band_mhz
         if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi):
-            raise ValueError(f"fit band must be 0 < lo < hi MHz, got {self.fit_band_mhz}")
+            raise SettingsError(f"fit band must be 0 < lo < hi MHz, got {self.fit_band_mhz}")
         if self.n_terms < 1:
-            raise ValueError(f"n_terms must be >= 1, got {self.n_terms}")
+            raise SettingsError(f"n_terms must be >= 1, got {self.n_terms}")
         if self.n_lst < 1:
-            raise ValueError(f"n_lst must be >= 1, got {self.n_lst}")
+            raise SettingsError(f"n_lst must be >= 1, got {self.n_lst}")
 
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)
@@ -99,11 +106,11 @@ def _hemisphere(beam: Beam) -> tuple[Beam, np.ndarray]:
     hemi = beam.upper_hemisphere()
     src = beam.meta.get("source", "beam")
     if hemi.theta_deg.size < 2 or hemi.theta_deg[0] > 1e-6 or hemi.theta_deg[-1] < 90 - 1e-6:
-        raise ValueError(f"{src}: the beam must cover theta 0..90 deg to be scored")
+        raise BeamFormatError(f"{src}: the beam must cover theta 0..90 deg to be scored")
     phi = hemi.phi_deg
     gaps = np.diff(np.concatenate([phi, [phi[0] + 360.0]]))
     if phi.size < 4 or gaps[-1] > 1.5 * np.max(gaps[:-1]):
-        raise ValueError(
+        raise BeamFormatError(
             f"{src}: the beam covers azimuth {phi[0]:g}..{phi[-1]:g} deg only; a drift-scan FoM needs the "
             "full circle (for FEKO quadrant exports, give all the quadrant files together)"
         )
@@ -162,10 +169,22 @@ def linlog_design(freqs_mhz: np.ndarray, nu0_mhz: float, beta: float, n_terms: i
 
 
 def fit_band_mask(freqs_mhz: np.ndarray, band: tuple[float, float], n_terms: int) -> np.ndarray:
+    """Which frequencies lie in the fit band. A beam must cover the whole band (to within
+    one of its own frequency steps): a beam cut short would be scored on part of the band
+    and look less chromatic than it is."""
     lo, hi = band
-    mask = (freqs_mhz >= lo - 1e-9) & (freqs_mhz <= hi + 1e-9)
+    f = np.asarray(freqs_mhz, dtype=float)
+    step = float(np.max(np.diff(f))) if f.size > 1 else 0.0
+    if f.size and (f.min() > lo + step + 1e-9 or f.max() < hi - step - 1e-9):
+        missing = [f"{lo:g}-{f.min():g}" if f.min() > lo + step + 1e-9 else None,
+                   f"{f.max():g}-{hi:g}" if f.max() < hi - step - 1e-9 else None]
+        raise UserInputError(
+            f"the beam covers {f.min():g}-{f.max():g} MHz but the fit band is {lo:g}-{hi:g} MHz: "
+            f"{' and '.join(m for m in missing if m)} MHz missing (solve or export the whole band, or set --fit-band)"
+        )
+    mask = (f >= lo - 1e-9) & (f <= hi + 1e-9)
     if mask.sum() <= n_terms:
-        raise ValueError(
+        raise UserInputError(
             f"fit band {lo:g}-{hi:g} MHz holds {int(mask.sum())} of the beam's frequencies "
             f"({freqs_mhz.min():g}-{freqs_mhz.max():g} MHz); a {n_terms}-term fit needs more than {n_terms}"
         )
@@ -241,7 +260,7 @@ def beam_correction_factor(
 def _freq_index(beam: Beam, f: float) -> int:
     i = np.flatnonzero(np.isclose(beam.freqs_mhz, f, atol=1e-6))
     if i.size == 0:
-        raise ValueError(f"{f} MHz is not among the frequencies of {beam.meta.get('source', 'the beam')}")
+        raise UserInputError(f"{f} MHz is not among the frequencies of {beam.meta.get('source', 'the beam')}")
     return int(i[0])
 
 
@@ -283,13 +302,9 @@ def chromaticity_report(beam: Beam, settings: FomSettings = FomSettings()) -> di
     rep: dict[str, Any] = {}
     try:
         rep["gain_poly3_residuals"] = gain_polynomial_residuals(beam, band)
-    except ValueError as exc:
+    except UserInputError as exc:
         rep["gain_poly3_residuals"] = {"error": str(exc)}
     for plane, phi in (("E", 0.0), ("H", 90.0)):
         fm, el, d = gain_derivative(beam, phi)
         rep[f"max_abs_dG_dnu_{plane}"] = float(np.max(np.abs(d)))
     return rep
-
-
-def with_settings(settings: FomSettings, **kw: Any) -> FomSettings:
-    return replace(settings, **kw)

@@ -9,7 +9,8 @@ import numpy as np
 from .fom import FomResult
 
 
-def _plt():
+def pyplot():
+    """matplotlib.pyplot on the file-only Agg backend (no display needed), imported on first use."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -21,7 +22,7 @@ def _plt():
 def fom_figure(results: Sequence[FomResult], labels: Sequence[str], path: str | Path,
                lst_hours_for_residuals: Sequence[float] = (2.0, 6.0, 12.0, 18.0)) -> Path:
     """FoM vs LST (top) and LinLog residual spectra at a few LSTs (bottom), one line per beam."""
-    plt = _plt()
+    plt = pyplot()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     n = len(lst_hours_for_residuals)

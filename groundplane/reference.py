@@ -11,7 +11,7 @@ import numpy as np
 
 from .beam import Beam
 from .fom import FomSettings
-from .sky import T_CMB_K, load_sky_map, lst_times
+from .sky import T_CMB_K, load_sky_map, location, lst_times
 
 
 def reference_antenna_temperature(beam: Beam, settings: FomSettings, lsts_deg: np.ndarray) -> np.ndarray:
@@ -20,8 +20,6 @@ def reference_antenna_temperature(beam: Beam, settings: FomSettings, lsts_deg: n
     import healpy as hp
     from astropy.coordinates import AltAz, SkyCoord
     from scipy.interpolate import RegularGridInterpolator
-
-    from ._astro import location
 
     hemi = beam.upper_hemisphere()
     sky = load_sky_map()

@@ -1,54 +1,189 @@
 """Parametric ground-plane outlines (SPEC section 2): exact 2-D polygons in metres,
 centred on the feed (the origin), x along the antenna's excitation axis.
 
-Every shape validates its parameters on construction and says what to change; every
-shape has ``outline()``, ``metal_area`` (m^2), ``extent`` (tip to tip, m), ``edge_count``,
-``mirror_symmetry`` and a stable ``key()`` for caching.
+Each family is a subclass of :class:`GroundPlane` that registers itself under its
+``kind`` and declares its parameters once, with :func:`param`: help text, optimiser
+bounds, the values an integer parameter is searched over. It also declares its metal
+area as a closed form valid for *any* parameters (the optimiser's constraint needs it
+outside the valid region too) and its validity constraints. The CLI shape flags, the
+sweep TOML and the optimiser are all generated from those declarations, so a new family
+is one class::
+
+    class Ring(GroundPlane, kind="ring"):
+        outer: float = param("outer radius (m)", bounds=(2.0, 20.0))
+        ...
+        def _vertices(self): ...
+        @classmethod
+        def area_of(cls, p): ...
 """
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import math
-from dataclasses import asdict, dataclass, fields
-from typing import Any, ClassVar
+from dataclasses import dataclass, field, fields
+from typing import Any, Callable, ClassVar, get_type_hints
 
 import numpy as np
 from shapely.geometry import Polygon
 from shapely.geometry.polygon import orient
 from shapely.validation import explain_validity
 
+from .errors import ShapeError
 
-class ShapeError(ValueError):
-    """Impossible ground-plane geometry."""
+__all__ = ["GroundPlane", "ShapeError", "Param", "param", "SHAPES", "PRESETS", "preset", "from_dict", "to_dict",
+           "Square", "Plus", "Sawtooth", "RegularPolygon", "Star", "PolygonPlane"]
+
+SHAPES: dict[str, type["GroundPlane"]] = {}
+"""Every registered shape family, by kind (filled by ``GroundPlane.__init_subclass__``)."""
 
 
-def _positive(shape: str, **values: float) -> None:
-    for name, v in values.items():
-        if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v) or v <= 0:
-            raise ShapeError(f"{shape}: {name} must be a positive finite number of metres, got {v!r}")
+def param(help: str, *, bounds: tuple[float, float] | None = None, values: tuple[int, ...] = (),
+          minimum: float | None = 0.0, optimise: bool = True, default: Any = dataclasses.MISSING,
+          parse: Callable[[str], Any] | None = None) -> Any:
+    """Declare a shape parameter.
+
+    Parameters
+    ----------
+    help : str
+        What it is, with its unit; shown by ``--help``.
+    bounds : (float, float), optional
+        The optimiser's search range for a continuous parameter.
+    values : tuple of int
+        The values the optimiser enumerates for an integer parameter.
+    minimum : float or None
+        Values must exceed this (0: positive lengths); None accepts any finite value.
+    optimise : bool
+        False keeps the parameter at its default (or the CLI value) during a search.
+    default
+        Makes the parameter optional.
+    parse : callable, optional
+        Turns the command-line string into the value (for structured parameters).
+    """
+    meta = {"help": help, "bounds": bounds, "values": tuple(values), "minimum": minimum, "optimise": optimise,
+            "parse": parse}
+    return field(default=default, metadata={"shape_param": meta})
+
+
+@dataclass(frozen=True)
+class Param:
+    """A family's parameter, as the CLI, the sweep TOML and the optimiser see it."""
+
+    name: str
+    type: type
+    help: str
+    bounds: tuple[float, float] | None
+    values: tuple[int, ...]
+    minimum: float | None
+    optimise: bool
+    required: bool
+    parse: Callable[[str], Any] | None
+
+    @property
+    def flag(self) -> str:
+        return "--" + self.name.replace("_", "-")
+
+
+def _check_number(shape: str, p: Param, v: Any) -> None:
+    if p.type is int:
+        if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or (p.minimum is not None and v < p.minimum):
+            floor = "" if p.minimum is None else f" >= {p.minimum:g}"
+            raise ShapeError(f"{shape}: {p.name} must be a whole number{floor}, got {v!r}")
+        return
+    ok = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) and math.isfinite(v)
+    if not ok or (p.minimum is not None and v <= p.minimum):
+        what = "a positive finite number of metres" if p.minimum == 0.0 else "a finite number"
+        raise ShapeError(f"{shape}: {p.name} must be {what}, got {v!r}")
 
 
 class GroundPlane:
-    """Base of every ground-plane shape. Subclasses are frozen dataclasses that define
-    ``_vertices()`` (counter-clockwise, metres) and, where a closed form exists, ``_area()``."""
+    """Base of every ground-plane shape family.
 
-    kind: ClassVar[str] = "polygon"
+    A subclass passes ``kind="name"`` and declares its parameters with :func:`param`; it is
+    made a frozen dataclass and registered in :data:`SHAPES`. It must define
+    ``_vertices()`` (counter-clockwise, metres) and may define ``area_of`` (closed-form
+    metal area), ``constraints`` (validity, each value <= 0 when valid) and
+    ``optimiser_start``.
+    """
 
+    kind: ClassVar[str] = ""
+
+    def __init_subclass__(cls, kind: str | None = None, **kw: Any) -> None:
+        super().__init_subclass__(**kw)
+        if not kind:
+            raise TypeError(f"{cls.__name__}: a shape family needs a kind, e.g. class {cls.__name__}(GroundPlane, "
+                            f"kind='{cls.__name__.lower()}')")
+        if kind in SHAPES:
+            raise TypeError(f"{cls.__name__}: shape kind '{kind}' is already registered by {SHAPES[kind].__name__}")
+        if cls._vertices is GroundPlane._vertices:
+            raise TypeError(f"{cls.__name__}: a shape family must define _vertices() (its outline)")
+        cls.kind = kind
+        dataclass(frozen=True)(cls)
+        missing = [f.name for f in fields(cls) if "shape_param" not in f.metadata]  # type: ignore[arg-type]
+        if missing:
+            raise TypeError(f"{cls.__name__}: declare every parameter with param(help, ...): {missing}")
+        SHAPES[kind] = cls
+
+    # ------------------------------------------------------------ declarations
+    @classmethod
+    def parameters(cls) -> list[Param]:
+        """The family's parameters in declaration order."""
+        hints = get_type_hints(cls)
+        out = []
+        for f in fields(cls):  # type: ignore[arg-type]
+            m = f.metadata["shape_param"]
+            t = hints[f.name]
+            out.append(Param(f.name, t if t in (int, float) else object, m["help"], m["bounds"], m["values"],
+                             m["minimum"], m["optimise"], f.default is dataclasses.MISSING, m["parse"]))
+        return out
+
+    @classmethod
+    def area_of(cls, p: dict[str, Any]) -> float | None:
+        """Closed-form metal area (m^2) of parameters ``p``, defined outside the valid
+        region too; None where there is no closed form (the outline's area is used)."""
+        return None
+
+    @classmethod
+    def constraints(cls, p: dict[str, Any]) -> list[tuple[float, str]]:
+        """Validity constraints as (value, message): valid when every value <= 0."""
+        return []
+
+    @classmethod
+    def optimiser_start(cls, max_area: float, integer: dict[str, int]) -> dict[str, float]:
+        """A valid starting point with metal area below ``max_area``: the family's
+        parameters at the middle of their bounds, lengths scaled to 80 % of the budget."""
+        x = {p.name: 0.5 * sum(p.bounds) for p in cls.parameters() if p.bounds is not None and p.optimise}
+        area = cls.area_of({**x, **integer})
+        if not area:
+            return x
+        s = math.sqrt(0.8 * max_area / area)
+        return {k: v * s for k, v in x.items()}
+
+    def __post_init__(self) -> None:
+        name = type(self).__name__
+        for p in self.parameters():
+            if p.type in (int, float):
+                _check_number(name, p, getattr(self, p.name))
+        for value, message in self.constraints(self.params()):
+            if value > 1e-9:
+                raise ShapeError(f"{name}: {message}")
+        self._validate_outline()
+
+    # ------------------------------------------------------------------ outline
     def _vertices(self) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
-
-    def _area(self) -> float | None:
-        return None
 
     def _validate_outline(self) -> None:
         poly = self.outline()
         if not poly.is_valid:
             raise ShapeError(f"{self.describe()}: the outline is not a simple polygon ({explain_validity(poly)})")
-        exact = self._area()
+        if poly.area <= 0:
+            raise ShapeError(f"{self.describe()}: the outline has zero area")
+        exact = self.area_of(self.params())
         if exact is not None and not math.isclose(exact, poly.area, rel_tol=1e-9, abs_tol=1e-9):
             raise ShapeError(
-                f"{self.describe()}: teeth overlap each other or the plane (outline area {poly.area:.6g} m^2 "
+                f"{self.describe()}: parts overlap each other or the plane (outline area {poly.area:.6g} m^2 "
                 f"!= {exact:.6g} m^2 expected)"
             )
 
@@ -59,7 +194,7 @@ class GroundPlane:
     @property
     def metal_area(self) -> float:
         """Metal area in m^2 (closed form where there is one, else the outline's area)."""
-        a = self._area()
+        a = self.area_of(self.params())
         return float(a if a is not None else self.outline().area)
 
     @property
@@ -81,6 +216,7 @@ class GroundPlane:
         """Mirror symmetry about the x axis (y -> -y) and the y axis (x -> -x)."""
         return {"x": _is_mirror(self.outline(), 1.0, -1.0), "y": _is_mirror(self.outline(), -1.0, 1.0)}
 
+    # ------------------------------------------------------------------ identity
     def params(self) -> dict[str, Any]:
         return {f.name: getattr(self, f.name) for f in fields(self)}  # type: ignore[arg-type]
 
@@ -120,33 +256,26 @@ def _is_mirror(poly: Polygon, sx: float, sy: float) -> bool:
     return poly.symmetric_difference(m).area <= 1e-9 * max(poly.area, 1.0)
 
 
-@dataclass(frozen=True)
-class Square(GroundPlane):
+# ------------------------------------------------------------------- families
+class Square(GroundPlane, kind="square"):
     """A square of side ``side`` (m)."""
 
-    side: float
-    kind: ClassVar[str] = "square"
-
-    def __post_init__(self) -> None:
-        _positive("Square", side=self.side)
+    side: float = param("side of the square (m)", bounds=(2.0, 40.0))
 
     def _vertices(self) -> np.ndarray:
         h = self.side / 2
         return np.array([[-h, -h], [h, -h], [h, h], [-h, h]])
 
-    def _area(self) -> float:
-        return self.side**2
+    @classmethod
+    def area_of(cls, p: dict[str, Any]) -> float:
+        return p["side"] ** 2
 
 
-@dataclass(frozen=True)
-class Plus(GroundPlane):
+class Plus(GroundPlane, kind="plus"):
     """Five equal squares of side ``arm`` in a cross (tip to tip 3 x arm)."""
 
-    arm: float
-    kind: ClassVar[str] = "plus"
-
-    def __post_init__(self) -> None:
-        _positive("Plus", arm=self.arm)
+    arm: float = param("side of each of the five squares of the cross (m); tip to tip is 3 x arm",
+                       bounds=(1.0, 15.0))
 
     def _vertices(self) -> np.ndarray:
         a, b = self.arm / 2, 1.5 * self.arm
@@ -155,8 +284,9 @@ class Plus(GroundPlane):
             [-b, -a], [-a, -a], [-a, -b], [a, -b],
         ])
 
-    def _area(self) -> float:
-        return 5 * self.arm**2
+    @classmethod
+    def area_of(cls, p: dict[str, Any]) -> float:
+        return 5 * p["arm"] ** 2
 
 
 def _square_with_teeth(side: float, n: int, base: float, height: float) -> np.ndarray:
@@ -185,87 +315,70 @@ def _square_with_teeth(side: float, n: int, base: float, height: float) -> np.nd
     return out
 
 
-@dataclass(frozen=True)
-class Sawtooth(GroundPlane):
+class Sawtooth(GroundPlane, kind="sawtooth"):
     """A central square of side ``side`` with ``teeth_per_side`` isosceles triangles (base
     ``tooth_base``, height ``tooth_height``) evenly spaced along each side: 4 x n in all."""
 
-    side: float
-    teeth_per_side: int
-    tooth_base: float
-    tooth_height: float
-    kind: ClassVar[str] = "sawtooth"
-
-    def __post_init__(self) -> None:
-        _positive("Sawtooth", side=self.side, tooth_base=self.tooth_base, tooth_height=self.tooth_height)
-        n = self.teeth_per_side
-        if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 1:
-            raise ShapeError(f"Sawtooth: teeth_per_side must be a whole number >= 1, got {n!r}")
-        if n * self.tooth_base > self.side * (1 + 1e-12):
-            raise ShapeError(
-                f"Sawtooth: {n} teeth of base {self.tooth_base:g} m need {n * self.tooth_base:g} m but a side is "
-                f"{self.side:g} m; use teeth_per_side <= {int(self.side // self.tooth_base)} or "
-                f"tooth_base <= {self.side / n:g} m"
-            )
-        self._validate_outline()
+    side: float = param("side of the central square (m)", bounds=(4.0, 30.0))
+    teeth_per_side: int = param("triangles on each side of the square (4 x this in all)",
+                                values=(2, 3, 4, 5, 6), minimum=1)
+    tooth_base: float = param("base of each triangle (m)", bounds=(0.5, 10.0))
+    tooth_height: float = param("height of each triangle (m)", bounds=(0.5, 10.0))
 
     def _vertices(self) -> np.ndarray:
         return _square_with_teeth(self.side, int(self.teeth_per_side), self.tooth_base, self.tooth_height)
 
-    def _area(self) -> float:
-        return self.side**2 + 4 * self.teeth_per_side * 0.5 * self.tooth_base * self.tooth_height
+    @classmethod
+    def area_of(cls, p: dict[str, Any]) -> float:
+        return p["side"] ** 2 + 4 * p["teeth_per_side"] * 0.5 * p["tooth_base"] * p["tooth_height"]
+
+    @classmethod
+    def constraints(cls, p: dict[str, Any]) -> list[tuple[float, str]]:
+        n, base, side = p["teeth_per_side"], p["tooth_base"], p["side"]
+        return [(n * base - side,
+                 f"{n} teeth of base {base:g} m need {n * base:g} m but a side is {side:g} m; use teeth_per_side "
+                 f"<= {int(side // base)} or tooth_base <= {side / n:g} m")]
+
+    @classmethod
+    def optimiser_start(cls, max_area: float, integer: dict[str, int]) -> dict[str, float]:
+        # half the budget in the square, teeth filling 80 % of each side, the rest in their height
+        n = integer["teeth_per_side"]
+        side = math.sqrt(0.5 * max_area)
+        base = 0.8 * side / n
+        return {"side": side, "tooth_base": base, "tooth_height": min(10.0, 0.3 * max_area / (2 * n * base))}
 
     @property
     def n_teeth(self) -> int:
         return 4 * int(self.teeth_per_side)
 
 
-@dataclass(frozen=True)
-class RegularPolygon(GroundPlane):
+class RegularPolygon(GroundPlane, kind="polygon-n"):
     """A regular polygon of ``n_sides`` with circumradius ``radius`` (a disc as n grows),
     a flat side facing +x when ``rotation_deg`` is 0."""
 
-    n_sides: int
-    radius: float
-    rotation_deg: float = 0.0
-    kind: ClassVar[str] = "polygon-n"
-
-    def __post_init__(self) -> None:
-        _positive("RegularPolygon", radius=self.radius)
-        if not isinstance(self.n_sides, (int, np.integer)) or self.n_sides < 3:
-            raise ShapeError(f"RegularPolygon: n_sides must be a whole number >= 3, got {self.n_sides!r}")
-        if not math.isfinite(self.rotation_deg):
-            raise ShapeError("RegularPolygon: rotation_deg must be finite")
+    n_sides: int = param("number of sides of the regular polygon", values=(6, 8, 12), minimum=3)
+    radius: float = param("circumradius of the regular polygon (m)", bounds=(1.0, 25.0))
+    rotation_deg: float = param("rotation of the polygon (deg, counter-clockwise)", minimum=None, optimise=False,
+                                default=0.0)
 
     def _vertices(self) -> np.ndarray:
         n = int(self.n_sides)
         a = np.radians(self.rotation_deg) + np.pi / n + 2 * np.pi * np.arange(n) / n
         return self.radius * np.column_stack([np.cos(a), np.sin(a)])
 
-    def _area(self) -> float:
-        n = int(self.n_sides)
-        return 0.5 * n * self.radius**2 * math.sin(2 * math.pi / n)
+    @classmethod
+    def area_of(cls, p: dict[str, Any]) -> float:
+        n = int(p["n_sides"])
+        return 0.5 * n * p["radius"] ** 2 * math.sin(2 * math.pi / n)
 
 
-@dataclass(frozen=True)
-class Star(GroundPlane):
+class Star(GroundPlane, kind="star"):
     """A star / serrated disc: ``n_points`` tips at ``outer_radius`` alternating with
     notches at ``inner_radius`` (first tip on +x)."""
 
-    n_points: int
-    outer_radius: float
-    inner_radius: float
-    kind: ClassVar[str] = "star"
-
-    def __post_init__(self) -> None:
-        _positive("Star", outer_radius=self.outer_radius, inner_radius=self.inner_radius)
-        if not isinstance(self.n_points, (int, np.integer)) or self.n_points < 3:
-            raise ShapeError(f"Star: n_points must be a whole number >= 3, got {self.n_points!r}")
-        if self.inner_radius >= self.outer_radius:
-            raise ShapeError(
-                f"Star: inner_radius ({self.inner_radius:g} m) must be smaller than outer_radius "
-                f"({self.outer_radius:g} m)"
-            )
+    n_points: int = param("number of tips of the star", values=(8, 12, 16), minimum=3)
+    outer_radius: float = param("radius of the star's tips (m)", bounds=(2.0, 25.0))
+    inner_radius: float = param("radius of the star's notches (m), below outer_radius", bounds=(1.0, 20.0))
 
     def _vertices(self) -> np.ndarray:
         n = int(self.n_points)
@@ -273,17 +386,40 @@ class Star(GroundPlane):
         r = np.where(np.arange(2 * n) % 2 == 0, self.outer_radius, self.inner_radius)
         return np.column_stack([r * np.cos(a), r * np.sin(a)])
 
-    def _area(self) -> float:
-        n = int(self.n_points)
-        return n * self.outer_radius * self.inner_radius * math.sin(math.pi / n)
+    @classmethod
+    def area_of(cls, p: dict[str, Any]) -> float:
+        n = int(p["n_points"])
+        return n * p["outer_radius"] * p["inner_radius"] * math.sin(math.pi / n)
+
+    @classmethod
+    def constraints(cls, p: dict[str, Any]) -> list[tuple[float, str]]:
+        return [(p["inner_radius"] - p["outer_radius"] + 1e-6,
+                 f"inner_radius ({p['inner_radius']:g} m) must be smaller than outer_radius "
+                 f"({p['outer_radius']:g} m)")]
+
+    @classmethod
+    def optimiser_start(cls, max_area: float, integer: dict[str, int]) -> dict[str, float]:
+        n = integer["n_points"]
+        outer = math.sqrt(0.8 * max_area / (n * 0.7 * math.sin(math.pi / n)))
+        return {"outer_radius": outer, "inner_radius": 0.7 * outer}
 
 
-@dataclass(frozen=True)
-class PolygonPlane(GroundPlane):
+def parse_vertices(text: str) -> tuple[tuple[float, float], ...]:
+    """'x,y;x,y;...' (metres) -> vertex pairs."""
+    try:
+        pts = [tuple(float(c) for c in pt.split(",")) for pt in text.split(";") if pt.strip()]
+    except ValueError:
+        raise ShapeError(f"--vertices: expected 'x,y;x,y;...', got '{text}'") from None
+    if any(len(p) != 2 for p in pts):
+        raise ShapeError(f"--vertices: expected 'x,y;x,y;...', got '{text}'")
+    return tuple(pts)  # type: ignore[return-value]
+
+
+class PolygonPlane(GroundPlane, kind="polygon"):
     """Any simple polygon outline, given by its vertices (m) around the feed."""
 
-    vertices: tuple[tuple[float, float], ...]
-    kind: ClassVar[str] = "polygon"
+    vertices: tuple = param("polygon vertices 'x,y;x,y;...' (m), the feed (origin) inside", optimise=False,
+                            parse=parse_vertices)
 
     def __post_init__(self) -> None:
         try:
@@ -307,15 +443,6 @@ class PolygonPlane(GroundPlane):
         return np.asarray(self.vertices)
 
 
-SHAPES: dict[str, type[GroundPlane]] = {
-    "square": Square,
-    "plus": Plus,
-    "sawtooth": Sawtooth,
-    "polygon-n": RegularPolygon,
-    "star": Star,
-    "polygon": PolygonPlane,
-}
-
 # The design-study rows of the paper (Table 3) and the deployed "extended" plane.
 PRESETS: dict[str, GroundPlane] = {
     "square-10": Square(10.0),
@@ -332,6 +459,7 @@ PRESETS: dict[str, GroundPlane] = {
 
 
 def preset(name: str) -> GroundPlane:
+    """A design-study preset by name."""
     try:
         return PRESETS[name]
     except KeyError:
@@ -342,25 +470,29 @@ def from_dict(d: dict[str, Any]) -> GroundPlane:
     """Build a shape from ``{"shape": kind, **params}`` (the sweep/optimiser format) or a preset."""
     d = dict(d)
     if "preset" in d:
+        extra = set(d) - {"preset"}
+        if extra:
+            raise ShapeError(f"preset '{d['preset']}' takes no other keys; got {sorted(extra)}")
         return preset(d["preset"])
     kind = d.pop("shape", None)
     if kind not in SHAPES:
         raise ShapeError(f"unknown shape '{kind}'; choose one of {', '.join(SHAPES)}")
     cls = SHAPES[kind]
-    names = {f.name for f in fields(cls)}  # type: ignore[arg-type]
+    names = {p.name for p in cls.parameters()}
     unknown = set(d) - names
     if unknown:
         raise ShapeError(f"{cls.__name__}: unknown parameter(s) {sorted(unknown)}; expected {sorted(names)}")
+    missing = [p.name for p in cls.parameters() if p.required and p.name not in d]
+    if missing:
+        raise ShapeError(f"{cls.__name__}: missing parameter(s) {missing}")
     if cls is PolygonPlane:
         d["vertices"] = tuple(tuple(p) for p in d.get("vertices", ()))
-    try:
-        return cls(**d)
-    except TypeError as exc:
-        raise ShapeError(f"{cls.__name__}: {exc}") from None
+    return cls(**d)
 
 
 def to_dict(shape: GroundPlane) -> dict[str, Any]:
-    d = asdict(shape)  # type: ignore[call-overload]
+    """``{"shape": kind, **params}``: the inverse of :func:`from_dict`."""
+    d = shape.params()
     if isinstance(shape, PolygonPlane):
         d["vertices"] = [list(p) for p in shape.vertices]
     return {"shape": shape.kind, **d}

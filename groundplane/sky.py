@@ -11,13 +11,16 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 from dataclasses import dataclass, field
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
+
+from . import paper
+from .errors import UserInputError
+from .files import atomic_path
 
 HASLAM_FILE = "haslam408_haslam1982_mpifr_nside0128_galactic_ring_K.fits"
 SIDEREAL_DAY_S = 86164.0905  # mean sidereal day; only a first guess, refined with astropy
@@ -29,12 +32,33 @@ class Site:
     """An observing site (geodetic latitude and east longitude, deg)."""
 
     name: str = "MRO"
-    lat_deg: float = -26.714778
-    lon_deg: float = 116.605528
+    lat_deg: float = paper.MRO_LATITUDE_DEG
+    lon_deg: float = paper.MRO_LONGITUDE_DEG
     height_m: float = 0.0
 
 
 MRO = Site()
+
+
+@lru_cache(maxsize=8)
+def _location(lat: float, lon: float, height: float):
+    import astropy.units as u
+    from astropy.coordinates import EarthLocation
+    from astropy.utils import iers
+
+    # Every astropy time/frame computation here starts from a location, so this is where
+    # astropy is set up (imported lazily: it costs ~0.5 s). The IERS tables bundled with
+    # astropy (astropy-iers-data) are enough at the 1-deg level of a drift scan; never
+    # reach for the network.
+    iers.conf.auto_download = False
+    iers.conf.auto_max_age = None
+
+    return EarthLocation(lat=lat * u.deg, lon=lon * u.deg, height=height * u.m)
+
+
+def location(site: Site):
+    """astropy EarthLocation of a :class:`Site`."""
+    return _location(site.lat_deg, site.lon_deg, site.height_m)
 
 
 def cache_dir() -> Path:
@@ -56,7 +80,7 @@ def _read_map(path: str) -> np.ndarray:
 
     m = hp.read_map(path, field=0, dtype=np.float64)
     if not np.all(np.isfinite(m)):
-        raise ValueError(f"{path}: sky map has non-finite pixels")
+        raise UserInputError(f"{path}: sky map has non-finite pixels")
     return m
 
 
@@ -83,8 +107,6 @@ def lst_times(lsts_deg: np.ndarray, site: Site = MRO, epoch: str = "2017-01-01T0
     import astropy.units as u
     from astropy.time import Time
 
-    from ._astro import location
-
     loc = location(site)
     t0 = Time(epoch, scale="utc")
     lst0 = t0.sidereal_time("apparent", longitude=loc.lon).deg
@@ -104,8 +126,6 @@ def horizon_to_galactic(
     """
     import astropy.units as u
     from astropy.coordinates import AltAz, Galactic, SkyCoord
-
-    from ._astro import location
 
     loc = location(site)
     ls, bs = [], []
@@ -163,7 +183,7 @@ def horizon_sky(
     *,
     lsts_deg: np.ndarray | None = None,
     site: Site = MRO,
-    antenna_azimuth_deg: float = -7.0,
+    antenna_azimuth_deg: float,
     sky_path: str | os.PathLike | None = None,
     use_disk_cache: bool = True,
     progress: bool = False,
@@ -214,15 +234,9 @@ def horizon_sky(
             l, b = horizon_to_galactic(alt, az, [times[i]], site)
             t408[i] = hp.get_interp_val(sky, l[0], b[0], lonlat=True)
         if use_disk_cache:
-            fd, tmp = tempfile.mkstemp(dir=file.parent, suffix=".npy.tmp")
-            os.close(fd)
-            try:
+            with atomic_path(file, suffix=".npy.tmp") as tmp:
                 with open(tmp, "wb") as fh:
                     np.save(fh, t408)
-                os.replace(tmp, file)
-            finally:
-                if os.path.exists(tmp):
-                    os.unlink(tmp)
     hs = HorizonSky(lsts, theta, phi, t408, key)
     if len(_MEMORY) > 8:
         _MEMORY.clear()

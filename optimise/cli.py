@@ -1,102 +1,87 @@
-"""``groundplane sweep``, ``groundplane optimise`` and ``groundplane reproduce``."""
+"""``groundplane sweep``, ``groundplane optimise`` and ``groundplane study``."""
 from __future__ import annotations
 
 import argparse
 import json
-import shlex
 import sys
 from pathlib import Path
 
+from groundplane.cli import CLIError, command, invocation
+from groundplane.fom import FomSettings
+from groundplane.options import add_options, from_args, options
+from solvers.cli import add_solve_options, solve_options
+from solvers.engines.base import SolveSettings
 
-def register(sub) -> None:
-    s = sub.add_parser("sweep", help="solve, score and rank the candidates of a TOML file (resumable)")
-    s.add_argument("config", help="sweep TOML (see optimise/sweep.py for the format)")
-    s.add_argument("-o", "--out", default=None, help="output folder (default: next to the config, named after it)")
-    s.add_argument("--executor", choices=["local", "dask"], default="local")
-    s.add_argument("--scheduler", help="Dask scheduler address (default: a local cluster)")
-    s.add_argument("--retry-failed", action="store_true", help="solve failed candidates again")
-    s.set_defaults(func=cmd_sweep)
-
-    o = sub.add_parser("optimise", help="nlopt search of a shape family under a metal-area budget")
-    o.add_argument("--shape", required=True, choices=["square", "plus", "sawtooth", "polygon-n", "star"])
-    o.add_argument("--max-area", type=float, required=True, help="metal budget, m^2")
-    o.add_argument("--algorithm", default="LN_COBYLA", help="nlopt algorithm taking constraints (default LN_COBYLA)")
-    o.add_argument("--budget", type=int, default=30, help="evaluations in all (default 30)")
-    o.add_argument("--integers", type=int, nargs="+", help="values of the family's integer parameter to try")
-    o.add_argument("--compare", nargs="*", default=[], metavar="PRESET", help="presets scored with the same settings")
-    o.add_argument("--step", action="store_true", help="write the best design's STEP")
-    _eval_args(o)
-    o.add_argument("-o", "--out", required=True)
-    o.set_defaults(func=cmd_optimise)
-
-    r = sub.add_parser("reproduce", help="reproduce the reference study's design table or soil sweep")
-    r.add_argument("what", choices=["design-study", "soil-sweep"])
-    _eval_args(r)
-    r.add_argument("-o", "--out", default="results")
-    r.add_argument("--compare-mesh", type=float, metavar="SPACING",
-                   help="design-study: also solve at this plate spacing and report how rows and conclusions move")
-    r.set_defaults(func=cmd_reproduce)
+from .evaluate import EvalSettings
 
 
-def _eval_args(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("solver and scoring")
-    g.add_argument("--mesh", type=float, default=0.5, help="plate grid spacing m (default 0.5)")
-    g.add_argument("--plate-height", type=float, default=0.05, help="plate height above the soil m (default 0.05)")
-    g.add_argument("--refine-centre", type=float, nargs=2, metavar=("HALF_WIDTH", "FACTOR"),
-                   help="a grid FACTOR times finer inside |x|,|y| <= HALF_WIDTH m")
-    g.add_argument("--freqs", default="40:100:1", help="MHz, LO:HI:STEP (default 40:100:1)")
-    g.add_argument("--eps-r", type=float, default=3.5)
-    g.add_argument("--sigma", type=float, default=0.02)
-    g.add_argument("--n-lst", type=int, default=360)
+def add_eval_options(p: argparse.ArgumentParser) -> None:
+    """Every solver and FoM option (generated from the settings dataclasses)."""
+    add_solve_options(p)
+    add_options(p, FomSettings, "Figure of Merit (defaults: the paper's)")
 
 
-def _settings(args: argparse.Namespace):
-    from groundplane.design import Soil
-    from groundplane.fom import FomSettings
-    from solvers.nec import MeshSettings, parse_freqs
-
-    from .objective import EvalSettings
-
-    from solvers.cli import _refine
-
-    mesh = MeshSettings(spacing=args.mesh, plate_height=args.plate_height, **_refine(args.refine_centre))
-    return EvalSettings(soil=Soil(args.eps_r, args.sigma), mesh=mesh,
-                        freqs_mhz=tuple(parse_freqs(args.freqs)), fom=FomSettings(n_lst=args.n_lst))
+def eval_settings(args: argparse.Namespace) -> EvalSettings:
+    soil, solve, model = solve_options(args)
+    return EvalSettings(soil=soil, solver=model, freqs_mhz=solve.freqs_mhz, workers=solve.workers,
+                        engine=solve.engine, fom=from_args(FomSettings, args))
 
 
-def _command() -> str:
-    return "groundplane " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+@command("sweep", "solve, score and rank the candidates of a TOML file (resumable)")
+def setup_sweep(p: argparse.ArgumentParser):
+    p.add_argument("config", help="sweep TOML (see optimise/sweep.py for the format)")
+    p.add_argument("-o", "--out", default=None,
+                   help="output folder (default: ./sweep-<config name> in the working directory)")
+    p.add_argument("--executor", choices=["local", "dask"], default="local")
+    p.add_argument("--scheduler", help="Dask scheduler address (default: a local cluster)")
+    p.add_argument("--retry-failed", action="store_true", help="solve failed candidates again")
+    return run_sweep_cmd
 
 
-def cmd_sweep(args: argparse.Namespace) -> int:
+def run_sweep_cmd(args: argparse.Namespace) -> int:
     from .report import write_report
     from .sweep import load_config, run_sweep, summary_table
 
     candidates, invalid, settings = load_config(args.config)
-    out = Path(args.out) if args.out else Path(args.config).with_suffix("")
+    out = Path(args.out) if args.out else Path.cwd() / f"sweep-{Path(args.config).stem}"
     rows = run_sweep(candidates, settings, out, invalid=invalid, executor=args.executor,
                      scheduler=args.scheduler, retry_failed=args.retry_failed, progress=sys.stderr.isatty())
-    paths = write_report(rows, out, title=f"Sweep {Path(args.config).name}", preamble=f"Command: `{_command()}`")
+    paths = write_report(rows, out, title=f"Sweep {Path(args.config).name}",
+                         preamble=f"Command: `{invocation()}`. Settings: {settings.describe()}.")
     print(summary_table(rows))
     print(f"report: {paths['md']}")
     return 0
 
 
-def cmd_optimise(args: argparse.Namespace) -> int:
+@command("optimise", "nlopt search of a shape family under a metal-area budget")
+def setup_optimise(p: argparse.ArgumentParser):
+    from .search import optimisable
+
+    p.add_argument("--shape", required=True, choices=optimisable())
+    p.add_argument("--max-area", type=float, required=True, help="metal budget, m^2")
+    p.add_argument("--algorithm", default="LN_COBYLA", help="nlopt algorithm taking constraints (default LN_COBYLA)")
+    p.add_argument("--budget", type=int, default=30, help="evaluations in all (default 30)")
+    p.add_argument("--integers", type=int, nargs="+", help="values of the family's integer parameter to try")
+    p.add_argument("--compare", nargs="*", default=[], metavar="PRESET", help="presets scored with the same settings")
+    p.add_argument("--step", action="store_true", help="write the best design's STEP")
+    add_eval_options(p)
+    p.add_argument("-o", "--out", required=True)
+    return run_optimise
+
+
+def run_optimise(args: argparse.Namespace) -> int:
+    from groundplane.plots import pyplot
     from groundplane.shapes import preset
 
-    from .objective import Candidate, evaluate
+    from .evaluate import Candidate, evaluate
     from .report import write_report
     from .search import best_plane, optimise
 
-    settings = _settings(args)
+    settings = eval_settings(args)
     out = Path(args.out)
     res = optimise(args.shape, args.max_area, settings, out, algorithm=args.algorithm, budget=args.budget,
-                   integer_values=tuple(args.integers) if args.integers else None)
-    rows = []
-    for name in args.compare:
-        row = evaluate(Candidate(name, plane=preset(name)), settings)
-        rows.append(row)
+                   integer_values=tuple(args.integers) if args.integers else None, progress=True)
+    rows = [evaluate(Candidate(name, plane=preset(name)), settings) for name in args.compare]
     if res.best:
         best = best_plane(args.shape, res.best)
         rows.append(evaluate(Candidate(f"optimised {args.shape}", plane=best), settings))
@@ -104,11 +89,11 @@ def cmd_optimise(args: argparse.Namespace) -> int:
             from groundplane.cad import export_step
 
             export_step(best, out / "best.step")
-    _history_plot(res.history, out / "history.png", args.max_area)
+    _history_plot(pyplot(), res.history, out / "history.png", args.max_area)
     verdict = _verdict(rows, args)
     paths = write_report(rows, out, title=f"Optimised {args.shape} under {args.max_area:g} m^2",
-                         preamble=f"Command: `{_command()}`. {len(res.history)} evaluations in "
-                                  f"history.jsonl. {verdict}")
+                         preamble=f"Command: `{invocation()}`. Settings: {settings.describe()}. "
+                                  f"{len(res.history)} evaluations in history.jsonl. {verdict}")
     print(verdict)
     print(f"report: {paths['md']}")
     return 0 if res.best else 1
@@ -130,12 +115,7 @@ def _verdict(rows, args) -> str:
     return text
 
 
-def _history_plot(history, path: Path, max_area: float) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+def _history_plot(plt, history, path: Path, max_area: float) -> None:
     ok = [(i, r) for i, r in enumerate(history, 1) if r["status"] == "ok"]
     if not ok:
         return
@@ -155,20 +135,50 @@ def _history_plot(history, path: Path, max_area: float) -> None:
     plt.close(fig)
 
 
-def cmd_reproduce(args: argparse.Namespace) -> int:
-    from .reproduce import design_study, soil_sweep
+@command("study", "run a study: the paper's reproductions (design-study, soil-sweep) and the model studies")
+def setup_study(p: argparse.ArgumentParser):
+    from .studies import STUDIES
 
-    settings = _settings(args)
-    if args.what == "design-study":
-        compare = None
-        if args.compare_mesh is not None:
-            from dataclasses import replace
+    p.add_argument("name", choices=sorted(STUDIES), help="; ".join(f"{k}: {s.help}" for k, s in sorted(STUDIES.items())))
+    p.add_argument("-o", "--out", default=None, help="output folder (default: ./<study name> in the working directory)")
+    p.add_argument("--compare-mesh", type=float, metavar="SPACING",
+                   help="design-study: also solve at this plate spacing and report how rows and conclusions move")
+    p.add_argument("--feko-dir", type=Path, help="feko-40mhz: folder of the four FEKO quadrant files")
+    add_eval_options(p)
+    return run_study_cmd
 
-            compare = replace(settings, mesh=replace(settings.mesh, spacing=args.compare_mesh))
-        table = design_study(settings, args.out, _command(), progress=sys.stderr.isatty(), compare=compare)
-        for t in table:
-            print(f"{t['preset']:16s} paper {t['paper_fom_mk']:6.0f}  ours {t['our_fom_mk']}")
+
+def run_study_cmd(args: argparse.Namespace) -> int:
+    from groundplane.design import Soil
+
+    from .studies import STUDIES, run_study
+
+    s = STUDIES[args.name]
+    extra = {}
+    if args.compare_mesh is not None:
+        if args.name != "design-study":
+            raise CLIError("--compare-mesh is for design-study")
+        extra["compare_mesh"] = args.compare_mesh
+    if args.feko_dir is not None:
+        if args.name != "feko-40mhz":
+            raise CLIError("--feko-dir is for feko-40mhz")
+        extra["feko_dir"] = args.feko_dir
+    settings = None
+    if s.uses_settings:
+        settings = eval_settings(args)
     else:
-        for r in soil_sweep(settings, args.out, _command(), progress=sys.stderr.isatty()):
-            print(r)
+        owners = [Soil, SolveSettings, FomSettings, *(c.settings_class for c in _engines())]
+        given = sorted({o.flag for c in owners for o in options(c) if getattr(args, o.key, None) is not None})
+        if given:
+            raise CLIError(f"study {args.name} fixes its own solver settings (it measures them); "
+                           f"it does not take {', '.join(given)}")
+    out = Path(args.out) if args.out else Path.cwd() / args.name
+    run_study(args.name, out, settings, invocation(), **extra)
+    print(f"{args.name}: results in {out}")
     return 0
+
+
+def _engines():
+    from solvers.engines import ENGINES
+
+    return ENGINES.values()

@@ -10,18 +10,10 @@ from typing import Any
 
 import numpy as np
 
+from groundplane.plots import pyplot
 from groundplane.shapes import from_dict
 
-from .objective import RESIDUAL_LSTS_H
-
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+from .evaluate import RESIDUAL_LSTS_H
 
 
 def ranked(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -91,7 +83,7 @@ def _f(v: Any, nd: int = 1) -> str:
 def _figures(ok: list[dict[str, Any]], out: Path) -> dict[str, Path]:
     from groundplane.cad import plot_outline
 
-    plt = _plt()
+    plt = pyplot()
     figs: dict[str, Path] = {}
     shapes = [r for r in ok if r.get("shape") != "beam-file"]
     if shapes:

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import sys
 import time
 from dataclasses import dataclass
@@ -21,66 +20,78 @@ from typing import Any, Callable
 
 import numpy as np
 
-from groundplane.shapes import GroundPlane, Plus, RegularPolygon, Sawtooth, ShapeError, Square, Star
+from groundplane.errors import ShapeError, UserInputError
+from groundplane.files import append_jsonl, read_jsonl
+from groundplane.shapes import SHAPES, GroundPlane
 
-from .objective import Candidate, EvalSettings, evaluate
+from .evaluate import Candidate, EvalSettings, evaluate
 
 CONSTRAINED_ALGORITHMS = ("LN_COBYLA", "GN_ISRES", "GN_ORIG_DIRECT", "GN_ORIG_DIRECT_L")
 
 
 @dataclass(frozen=True)
 class Family:
-    """A shape family as the optimiser sees it."""
+    """A shape family as the optimiser sees it, read from the family's own declaration:
+    the continuous parameters with bounds are searched, one integer parameter with listed
+    values is enumerated, everything else keeps its default."""
 
+    cls: type[GroundPlane]
     names: tuple[str, ...]  # continuous parameters, in x order
     lower: tuple[float, ...]
     upper: tuple[float, ...]
     integer: str | None  # name of the enumerated integer parameter
     integer_values: tuple[int, ...]
-    build: Callable[[np.ndarray, int | None], GroundPlane]
-    area: Callable[[np.ndarray, int | None], float]  # closed form, defined for invalid x too
-    validity: tuple[Callable[[np.ndarray, int | None], float], ...]  # each <= 0 when valid
-    start: Callable[[float, int | None], np.ndarray]  # a valid x with area below the budget
+
+    def params(self, x, n: int | None) -> dict[str, Any]:
+        p: dict[str, Any] = dict(zip(self.names, map(float, x)))
+        if self.integer:
+            p[self.integer] = int(n)  # type: ignore[arg-type]
+        return p
+
+    def build(self, x, n: int | None) -> GroundPlane:
+        return self.cls(**self.params(x, n))
+
+    def area(self, x, n: int | None) -> float:
+        """Closed-form metal area, defined for invalid x too (the constraint needs it there)."""
+        return float(self.cls.area_of(self.params(x, n)))
+
+    def validity(self, x, n: int | None) -> list[float]:
+        """Each <= 0 when valid."""
+        return [v for v, _ in self.cls.constraints(self.params(x, n))]
+
+    def start(self, max_area: float, n: int | None) -> np.ndarray:
+        """A valid x with metal area below the budget."""
+        x = self.cls.optimiser_start(max_area, {self.integer: n} if self.integer else {})
+        return np.array([x[k] for k in self.names])
 
 
-FAMILIES: dict[str, Family] = {
-    "square": Family(("side",), (2.0,), (40.0,), None, (),
-                     lambda x, n: Square(float(x[0])), lambda x, n: x[0] ** 2, (),
-                     lambda a, n: np.array([math.sqrt(0.8 * a)])),
-    "plus": Family(("arm",), (1.0,), (15.0,), None, (),
-                   lambda x, n: Plus(float(x[0])), lambda x, n: 5 * x[0] ** 2, (),
-                   lambda a, n: np.array([math.sqrt(0.8 * a / 5)])),
-    "sawtooth": Family(
-        ("side", "tooth_base", "tooth_height"), (4.0, 0.5, 0.5), (30.0, 10.0, 10.0),
-        "teeth_per_side", (2, 3, 4, 5, 6),
-        lambda x, n: Sawtooth(float(x[0]), int(n), float(x[1]), float(x[2])),
-        lambda x, n: x[0] ** 2 + 2 * n * x[1] * x[2],
-        (lambda x, n: n * x[1] - x[0],),  # teeth fit on the side
-        lambda a, n: _sawtooth_start(a, n),
-    ),
-    "polygon-n": Family(("radius",), (1.0,), (25.0,), "n_sides", (6, 8, 12),
-                        lambda x, n: RegularPolygon(int(n), float(x[0])),
-                        lambda x, n: 0.5 * n * x[0] ** 2 * math.sin(2 * math.pi / n), (),
-                        lambda a, n: np.array([math.sqrt(0.8 * a / (0.5 * n * math.sin(2 * math.pi / n)))])),
-    "star": Family(("outer_radius", "inner_radius"), (2.0, 1.0), (25.0, 20.0), "n_points", (8, 12, 16),
-                   lambda x, n: Star(int(n), float(x[0]), float(x[1])),
-                   lambda x, n: n * x[0] * x[1] * math.sin(math.pi / n),
-                   (lambda x, n: x[1] - 0.95 * x[0],),
-                   lambda a, n: _star_start(a, n)),
-}
+def family(kind: str) -> Family:
+    """The optimiser's view of a registered shape family."""
+    if kind not in SHAPES:
+        raise UserInputError(f"unknown shape family '{kind}'; choose one of {', '.join(optimisable())}")
+    cls = SHAPES[kind]
+    cont = [p for p in cls.parameters() if p.optimise and p.bounds is not None]
+    ints = [p for p in cls.parameters() if p.optimise and p.values]
+    if not cont or cls.area_of({**{p.name: p.bounds[0] for p in cont}, **{p.name: p.values[0] for p in ints}}) is None:
+        raise UserInputError(f"shape family '{kind}' declares no bounded parameters with a closed-form area; it "
+                             f"cannot be optimised (choose one of {', '.join(optimisable())})")
+    if len(ints) > 1:
+        raise UserInputError(f"shape family '{kind}': the optimiser enumerates one integer parameter, "
+                             f"found {[p.name for p in ints]}")
+    return Family(cls, tuple(p.name for p in cont), tuple(p.bounds[0] for p in cont),  # type: ignore[index]
+                  tuple(p.bounds[1] for p in cont), ints[0].name if ints else None,  # type: ignore[index]
+                  tuple(ints[0].values) if ints else ())
 
 
-def _sawtooth_start(a: float, n: int) -> np.ndarray:
-    side = math.sqrt(0.5 * a)
-    base = 0.8 * side / n
-    height = min(10.0, 0.3 * a / (2 * n * base))
-    return np.array([side, base, height])
-
-
-def _star_start(a: float, n: int) -> np.ndarray:
-    inner_over_outer = 0.7
-    outer = math.sqrt(0.8 * a / (n * inner_over_outer * math.sin(math.pi / n)))
-    return np.array([outer, inner_over_outer * outer])
+def optimisable() -> list[str]:
+    """Shape families the optimiser can search (bounded parameters and a closed-form area)."""
+    out = []
+    for kind, cls in SHAPES.items():
+        cont = [p for p in cls.parameters() if p.optimise and p.bounds is not None]
+        ints = [p for p in cls.parameters() if p.optimise and p.values]
+        if cont and len(ints) <= 1:
+            out.append(kind)
+    return out
 
 
 class History:
@@ -88,16 +99,8 @@ class History:
 
     def __init__(self, path: Path) -> None:
         self.path = path
-        self.rows: list[dict[str, Any]] = []
-        self.index: dict[tuple, dict[str, Any]] = {}
-        if path.exists():
-            for line in path.read_text().splitlines():
-                try:
-                    row = json.loads(line)
-                except json.JSONDecodeError:
-                    continue  # torn last line after a kill: that point is simply evaluated again
-                self.rows.append(row)
-                self.index[self.key(row["integer"], row["x"])] = row
+        self.rows: list[dict[str, Any]] = read_jsonl(path)  # a torn last line is evaluated again
+        self.index = {self.key(r["integer"], r["x"]): r for r in self.rows if "x" in r and "integer" in r}
 
     @staticmethod
     def key(n: int | None, x) -> tuple:
@@ -109,10 +112,7 @@ class History:
     def add(self, row: dict[str, Any]) -> None:
         self.rows.append(row)
         self.index[self.key(row["integer"], row["x"])] = row
-        with open(self.path, "a") as fh:
-            fh.write(json.dumps(row) + "\n")
-            fh.flush()
-            os.fsync(fh.fileno())
+        append_jsonl(self.path, row)
 
 
 @dataclass
@@ -134,90 +134,110 @@ def optimise(
     evaluate_fn: Callable[[Candidate, EvalSettings], dict[str, Any]] | None = None,
     progress: bool = True,
 ) -> OptimiseResult:
-    """Minimise the LST-averaged FoM of ``shape`` with metal area <= ``max_area`` (m^2)."""
-    import nlopt
+    """Minimise the LST-averaged FoM of ``shape`` with metal area <= ``max_area`` (m^2).
 
-    if shape not in FAMILIES:
-        raise ValueError(f"unknown shape family '{shape}'; choose one of {', '.join(FAMILIES)}")
+    Raises
+    ------
+    UserInputError
+        An unknown or unsearchable family, a budget or algorithm that cannot work.
+    """
     if not (math.isfinite(max_area) and max_area > 0):
-        raise ValueError(f"--max-area must be a positive number of m^2, got {max_area}")
+        raise UserInputError(f"--max-area must be a positive number of m^2, got {max_area}")
     if algorithm not in CONSTRAINED_ALGORITHMS:
-        raise ValueError(f"algorithm {algorithm} does not take the area constraint; use one of "
-                         f"{', '.join(CONSTRAINED_ALGORITHMS)}")
+        raise UserInputError(f"algorithm {algorithm} does not take the area constraint; use one of "
+                             f"{', '.join(CONSTRAINED_ALGORITHMS)}")
     if budget < 1:
-        raise ValueError("--budget must be >= 1 evaluation")
-    fam = FAMILIES[shape]
+        raise UserInputError("--budget must be >= 1 evaluation")
+    fam = family(shape)
     ints: tuple = tuple(integer_values) if integer_values else (fam.integer_values or (None,))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    hist = History(out / "history.jsonl")
-    evaluate_fn = evaluate_fn or (lambda c, s: evaluate(c, s, progress=False))
-    per_run = max(1, budget // len(ints))
-    penalty_floor = 1.0e4  # mK: far above any real FoM, and finite
-
-    def penalty() -> float:
-        finite = [r["fom_mk"] for r in hist.rows if r["status"] == "ok"]
-        return max([penalty_floor] + [10 * f for f in finite])
-
+    ev = _Evaluator(fam, shape, max_area, settings, History(out / "history.jsonl"),
+                    evaluate_fn or (lambda c, s: evaluate(c, s, progress=False)), progress)
     for n in ints:
-        def objective(x: np.ndarray, grad: np.ndarray, n=n) -> float:
-            if grad.size:
-                grad[:] = 0.0
-            seen = hist.get(n, x)
-            if seen is not None:  # replay: nlopt sees exactly what it saw before
-                return float(seen["objective"])
-            t0 = time.perf_counter()
-            row: dict[str, Any] = {"integer": n, "x": [float(v) for v in x],
-                                   "params": dict(zip(fam.names, map(float, x))), "area_m2": float(fam.area(x, n))}
-            if fam.integer:
-                row["params"][fam.integer] = n
-            bad = [g(x, n) for g in fam.validity if g(x, n) > 0]
-            if bad or not np.all(np.isfinite(x)):
-                row.update(status="invalid", fom_mk=None, error="outside the family's valid region")
-            elif row["area_m2"] > max_area * (1 + 1e-9):
-                row.update(status="over-budget", fom_mk=None, error="metal area above the budget")
-            else:
-                try:
-                    plane = fam.build(x, n)
-                    res = evaluate_fn(Candidate(f"{shape}-{len(hist.rows)}", plane=plane), settings)
-                    fom = res.get("lst_averaged_fom_mk")
-                    if res.get("status") == "ok" and fom is not None and math.isfinite(fom):
-                        row.update(status="ok", fom_mk=float(fom), name=plane.describe())
-                    else:
-                        row.update(status="failed", fom_mk=None, error=str(res.get("error", "non-finite FoM")))
-                except ShapeError as exc:
-                    row.update(status="invalid", fom_mk=None, error=str(exc))
-            row["objective"] = row["fom_mk"] if row["status"] == "ok" else penalty()
-            row["seconds"] = round(time.perf_counter() - t0, 2)
-            hist.add(row)
-            if progress:
-                f = f"{row['fom_mk']:.1f} mK" if row["fom_mk"] is not None else row["status"]
-                print(f"  eval {len(hist.rows):3d} {fam.integer or ''}={n} x={np.round(x, 3).tolist()} "
-                      f"area={row['area_m2']:.1f} -> {f}", file=sys.stderr)
-            return float(row["objective"])
-
-        opt = nlopt.opt(getattr(nlopt, algorithm), len(fam.names))
-        opt.set_lower_bounds(list(fam.lower))
-        opt.set_upper_bounds(list(fam.upper))
-        opt.set_min_objective(objective)
-        opt.add_inequality_constraint(lambda x, g, n=n: _zero(g) + fam.area(x, n) - max_area, 1e-6 * max_area)
-        for v in fam.validity:
-            opt.add_inequality_constraint(lambda x, g, v=v, n=n: _zero(g) + v(x, n), 1e-9)
-        opt.set_maxeval(per_run)
-        opt.set_xtol_rel(1e-3)
-        x0 = np.clip(fam.start(max_area, n), fam.lower, fam.upper)
-        if algorithm == "LN_COBYLA":
-            opt.set_initial_step([0.15 * (u - l) for l, u in zip(fam.lower, fam.upper)])
-        try:
-            opt.optimize(x0)
-        except (nlopt.RoundoffLimited, ValueError, RuntimeError) as exc:
-            if progress:
-                print(f"  nlopt stopped early for {fam.integer}={n}: {exc}", file=sys.stderr)
-
-    ok = [r for r in hist.rows if r["status"] == "ok" and r["area_m2"] <= max_area * (1 + 1e-9)]
+        _run_nlopt(fam, n, ev, algorithm, max(1, budget // len(ints)), max_area, progress)
+    ok = [r for r in ev.hist.rows if r["status"] == "ok" and r["area_m2"] <= max_area * (1 + 1e-9)]
     best = min(ok, key=lambda r: r["fom_mk"]) if ok else None
     (out / "best.json").write_text(json.dumps(best, indent=1))
-    return OptimiseResult(best, hist.rows, out)
+    return OptimiseResult(best, ev.hist.rows, out)
+
+
+@dataclass
+class _Evaluator:
+    """The objective nlopt calls: replays the history, else checks and scores one x."""
+
+    fam: Family
+    shape: str
+    max_area: float
+    settings: EvalSettings
+    hist: History
+    evaluate_fn: Callable[[Candidate, EvalSettings], dict[str, Any]]
+    progress: bool
+    penalty_floor: float = 1.0e4  # mK: far above any real FoM, and finite
+
+    def penalty(self) -> float:
+        finite = [r["fom_mk"] for r in self.hist.rows if r["status"] == "ok"]
+        return max([self.penalty_floor] + [10 * f for f in finite])
+
+    def __call__(self, x: np.ndarray, grad: np.ndarray, n: int | None) -> float:
+        _zero(grad)
+        seen = self.hist.get(n, x)
+        if seen is not None:  # replay: nlopt sees exactly what it saw before
+            return float(seen["objective"])
+        t0 = time.perf_counter()
+        row: dict[str, Any] = {"integer": n, "x": [float(v) for v in x], "params": self.fam.params(x, n),
+                               "area_m2": self.fam.area(x, n)}
+        row.update(self._score(x, n, row["area_m2"]))
+        row["objective"] = row["fom_mk"] if row["status"] == "ok" else self.penalty()
+        row["seconds"] = round(time.perf_counter() - t0, 2)
+        self.hist.add(row)
+        if self.progress:
+            f = f"{row['fom_mk']:.1f} mK" if row["fom_mk"] is not None else row["status"]
+            which = f" {self.fam.integer}={n}" if self.fam.integer else ""
+            print(f"  eval {len(self.hist.rows):3d}{which} x={np.round(x, 3).tolist()} area={row['area_m2']:.1f} m^2"
+                  f" -> {f} ({row['seconds']:.0f} s)", file=sys.stderr, flush=True)
+        return float(row["objective"])
+
+    def _score(self, x: np.ndarray, n: int | None, area: float) -> dict[str, Any]:
+        if any(v > 0 for v in self.fam.validity(x, n)) or not np.all(np.isfinite(x)):
+            return {"status": "invalid", "fom_mk": None, "error": "outside the family's valid region"}
+        if area > self.max_area * (1 + 1e-9):
+            return {"status": "over-budget", "fom_mk": None, "error": "metal area above the budget"}
+        try:
+            plane = self.fam.build(x, n)
+        except ShapeError as exc:
+            return {"status": "invalid", "fom_mk": None, "error": str(exc)}
+        if self.progress:
+            print(f"  eval {len(self.hist.rows) + 1:3d}: solving {plane.describe()} ...", file=sys.stderr, flush=True)
+        res = self.evaluate_fn(Candidate(f"{self.shape}-{len(self.hist.rows)}", plane=plane), self.settings)
+        fom = res.get("lst_averaged_fom_mk")
+        if res.get("status") == "ok" and fom is not None and math.isfinite(fom):
+            return {"status": "ok", "fom_mk": float(fom), "name": plane.describe()}
+        return {"status": "failed", "fom_mk": None, "error": str(res.get("error", "non-finite FoM"))}
+
+
+def _run_nlopt(fam: Family, n: int | None, ev: _Evaluator, algorithm: str, maxeval: int, max_area: float,
+               progress: bool) -> None:
+    """One nlopt run over the continuous parameters at integer value ``n``."""
+    import nlopt
+
+    opt = nlopt.opt(getattr(nlopt, algorithm), len(fam.names))
+    opt.set_lower_bounds(list(fam.lower))
+    opt.set_upper_bounds(list(fam.upper))
+    opt.set_min_objective(lambda x, g: ev(x, g, n))
+    opt.add_inequality_constraint(lambda x, g: _zero(g) + fam.area(x, n) - max_area, 1e-6 * max_area)
+    x0 = np.clip(fam.start(max_area, n), fam.lower, fam.upper)
+    for i in range(len(fam.validity(x0, n))):
+        opt.add_inequality_constraint(lambda x, g, i=i: _zero(g) + fam.validity(x, n)[i], 1e-9)
+    opt.set_maxeval(maxeval)
+    opt.set_xtol_rel(1e-3)
+    if algorithm == "LN_COBYLA":
+        opt.set_initial_step([0.15 * (u - l) for l, u in zip(fam.lower, fam.upper)])
+    try:
+        opt.optimize(x0)
+    except (nlopt.RoundoffLimited, ValueError, RuntimeError) as exc:
+        if progress:
+            print(f"  nlopt stopped early for {fam.integer}={n}: {exc}", file=sys.stderr)
 
 
 def _zero(grad: np.ndarray) -> float:
@@ -227,5 +247,5 @@ def _zero(grad: np.ndarray) -> float:
 
 
 def best_plane(shape: str, best: dict[str, Any]) -> GroundPlane:
-    fam = FAMILIES[shape]
-    return fam.build(np.array(best["x"]), best["integer"])
+    """The plane of a history row."""
+    return family(shape).build(np.array(best["x"]), best["integer"])

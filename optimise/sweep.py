@@ -38,92 +38,56 @@ per-frequency cache. Nothing computed is lost, even on kill -9.
 from __future__ import annotations
 
 import itertools
-import json
-import os
 import sys
 import tomllib
 from pathlib import Path
 from typing import Any, Iterable
 
-from groundplane.design import Soil
+from groundplane.errors import ConfigError, ShapeError, UserInputError
+from groundplane.files import append_jsonl, read_jsonl
 from groundplane.fom import FomSettings
-from groundplane.shapes import PRESETS, ShapeError, from_dict
+from groundplane.options import build
+from groundplane.shapes import PRESETS, from_dict
+from solvers.cli import solve_options_from_mapping
 
-from .objective import Candidate, EvalSettings, evaluate, failed_row, row_key
+from .evaluate import (
+    Candidate,
+    EvalSettings,
+    evaluate,
+    failed_row,
+    invalid_row,
+    row_key,
+)
+
+__all__ = ["ConfigError", "ResultStore", "load_config", "run_sweep", "summary_table", "settings_from_tables"]
+
+CANDIDATE_KEYS = {"preset", "name", "beam", "format", "metal_area_m2", "shape"}
 
 
-class ConfigError(ValueError):
-    """A sweep file that cannot be used; names the file and the entry."""
+def settings_from_tables(solver: dict[str, Any], fom: dict[str, Any], where: str) -> EvalSettings:
+    """EvalSettings from a sweep file's ``[solver]`` and ``[fom]`` tables (strictly typed)."""
+    soil, solve, model = solve_options_from_mapping(solver, f"{where}[solver]: ")
+    return EvalSettings(soil=soil, solver=model, freqs_mhz=solve.freqs_mhz, workers=solve.workers,
+                        engine=solve.engine, fom=build(FomSettings, fom, f"{where}[fom]: "))
 
 
 def load_config(path: str | Path) -> tuple[list[Candidate], list[dict[str, Any]], EvalSettings]:
     """Candidates, rows for invalid family members (kept in the report), and settings."""
-    from solvers.nec import MeshSettings, parse_freqs
-
     path = Path(path)
     try:
         cfg = tomllib.loads(path.read_text())
-    except (OSError, tomllib.TOMLDecodeError) as exc:
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise ConfigError(f"{path}: {exc}") from None
     unknown = set(cfg) - {"solver", "fom", "candidate", "family"}
     if unknown:
         raise ConfigError(f"{path}: unknown table(s) {sorted(unknown)}; expected solver, fom, candidate, family")
-    s = cfg.get("solver", {})
-    f = cfg.get("fom", {})
-    for table, given, known in (("solver", s, SOLVER_KEYS), ("fom", f, FOM_KEYS)):
-        if set(given) - known:  # a misspelt key would otherwise be silently ignored
-            raise ConfigError(f"{path}: [{table}]: unknown key(s) {sorted(set(given) - known)}; "
-                              f"expected some of {sorted(known)}")
-    try:
-        half, factor = s.get("refine_centre", (0.0, 1))
-        mesh = MeshSettings(spacing=float(s.get("mesh", 0.5)), plate_wire_radius=float(s.get("wire_radius", 0.01)),
-                            plate_height=float(s.get("plate_height", 0.05)),
-                            refine_half_width=float(half), refine_factor=int(factor))
-        fom = FomSettings(
-            beta=float(f.get("beta", 2.55)), fit_band_mhz=tuple(f.get("fit_band", (55.0, 97.0))),
-            n_lst=int(f.get("n_lst", 360)), normalise=bool(f.get("normalise", False)),
-            antenna_azimuth_deg=float(f.get("antenna_azimuth", -7.0)),
-        )
-        settings = EvalSettings(
-            soil=Soil(float(s.get("eps_r", 3.5)), float(s.get("sigma", 0.02))), mesh=mesh,
-            freqs_mhz=tuple(parse_freqs(str(s.get("freqs", "40:100:1")))), fom=fom,
-        )
-    except (ValueError, TypeError) as exc:
-        raise ConfigError(f"{path}: [solver]/[fom]: {exc}") from None
-    candidates: list[Candidate] = []
+    settings = settings_from_tables(cfg.get("solver", {}), cfg.get("fom", {}), f"{path}: ")
+    candidates = [_candidate(c, path, f"{path}: [[candidate]] #{i + 1}") for i, c in enumerate(cfg.get("candidate", []))]
     invalid: list[dict[str, Any]] = []
-    for i, c in enumerate(cfg.get("candidate", [])):
-        where = f"{path}: [[candidate]] #{i + 1}"
-        try:
-            if "beam" in c:
-                beams = c["beam"] if isinstance(c["beam"], list) else [c["beam"]]
-                beams = [str((path.parent / b) if not Path(b).is_absolute() else b) for b in beams]
-                name = c.get("name") or Path(beams[0]).stem
-                area = c.get("metal_area_m2")
-                candidates.append(Candidate(name, beam_paths=tuple(beams), beam_format=c.get("format", "auto"),
-                                            metal_area_m2=None if area is None else float(area)))
-            elif "preset" in c:
-                candidates.append(Candidate(c.get("name", c["preset"]), plane=from_dict({"preset": c["preset"]})))
-            else:
-                params = {k: v for k, v in c.items() if k != "name"}
-                plane = from_dict(params)
-                candidates.append(Candidate(c.get("name", _auto_name(params)), plane=plane))
-        except (ShapeError, ValueError, TypeError) as exc:
-            raise ConfigError(f"{where}: {exc}") from None
     for i, fam in enumerate(cfg.get("family", [])):
-        if "shape" not in fam:
-            raise ConfigError(f"{path}: [[family]] #{i + 1} needs 'shape'")
-        keys = [k for k in fam if k != "shape"]
-        grids = [fam[k] if isinstance(fam[k], list) else [fam[k]] for k in keys]
-        for combo in itertools.product(*grids):
-            params = {"shape": fam["shape"], **dict(zip(keys, combo))}
-            name = _auto_name(params)
-            try:
-                candidates.append(Candidate(name, plane=from_dict(params)))
-            except ShapeError as exc:  # an impossible member is reported, not fatal
-                invalid.append({"name": name, "status": "invalid", "error": str(exc), "shape": fam["shape"],
-                                "params": {k: v for k, v in params.items() if k != "shape"},
-                                "metal_area_m2": None, "extent_m": None, "lst_averaged_fom_mk": None})
+        members, bad = _family(fam, f"{path}: [[family]] #{i + 1}")
+        candidates += members
+        invalid += bad
     if not candidates:
         raise ConfigError(f"{path}: no candidates ([[candidate]] or [[family]] tables)")
     names = [c.name for c in candidates]
@@ -133,8 +97,46 @@ def load_config(path: str | Path) -> tuple[list[Candidate], list[dict[str, Any]]
     return candidates, invalid, settings
 
 
-SOLVER_KEYS = {"mesh", "wire_radius", "plate_height", "refine_centre", "freqs", "eps_r", "sigma"}
-FOM_KEYS = {"beta", "fit_band", "n_lst", "normalise", "antenna_azimuth"}
+def _candidate(c: dict[str, Any], path: Path, where: str) -> Candidate:
+    """One ``[[candidate]]``: a preset, a shape with its parameters, or solver export file(s)."""
+    try:
+        if "beam" in c:
+            extra = set(c) - {"beam", "name", "format", "metal_area_m2"}
+            if extra:
+                raise ConfigError(f"a beam-file candidate takes beam, name, format, metal_area_m2; not {sorted(extra)}")
+            beams = c["beam"] if isinstance(c["beam"], list) else [c["beam"]]
+            beams = [str((path.parent / b) if not Path(b).is_absolute() else b) for b in beams]
+            area = c.get("metal_area_m2")
+            if area is not None and (isinstance(area, bool) or not isinstance(area, (int, float))):
+                raise ConfigError(f"metal_area_m2 must be a number, got {area!r}")
+            return Candidate(c.get("name") or Path(beams[0]).stem, beam_paths=tuple(beams),
+                             beam_format=c.get("format", "auto"), metal_area_m2=None if area is None else float(area))
+        if "preset" in c:
+            extra = set(c) - {"preset", "name"}
+            if extra:
+                raise ConfigError(f"a preset candidate takes preset and name only; not {sorted(extra)}")
+            return Candidate(c.get("name", c["preset"]), plane=from_dict({"preset": c["preset"]}))
+        params = {k: v for k, v in c.items() if k != "name"}
+        return Candidate(c.get("name", _auto_name(params)), plane=from_dict(params))
+    except (UserInputError, TypeError) as exc:
+        raise ConfigError(f"{where}: {exc}") from None
+
+
+def _family(fam: dict[str, Any], where: str) -> tuple[list[Candidate], list[dict[str, Any]]]:
+    """Every combination of a ``[[family]]``'s listed values; impossible members become rows."""
+    if "shape" not in fam:
+        raise ConfigError(f"{where} needs 'shape'")
+    keys = [k for k in fam if k != "shape"]
+    grids = [fam[k] if isinstance(fam[k], list) else [fam[k]] for k in keys]
+    members, invalid = [], []
+    for combo in itertools.product(*grids):
+        params = {"shape": fam["shape"], **dict(zip(keys, combo))}
+        name = _auto_name(params)
+        try:
+            members.append(Candidate(name, plane=from_dict(params)))
+        except ShapeError as exc:  # an impossible member is reported, not fatal
+            invalid.append(invalid_row(name, fam["shape"], {k: v for k, v in params.items() if k != "shape"}, str(exc)))
+    return members, invalid
 
 
 def _auto_name(params: dict[str, Any]) -> str:
@@ -158,26 +160,10 @@ class ResultStore:
         self.path = self.dir / "results.jsonl"
 
     def rows(self) -> dict[str, dict[str, Any]]:
-        out: dict[str, dict[str, Any]] = {}
-        if not self.path.exists():
-            return out
-        with open(self.path) as fh:
-            for line in fh:
-                line = line.strip()
-                if not line:
-                    continue
-                try:
-                    row = json.loads(line)
-                except json.JSONDecodeError:
-                    continue  # a line torn by a kill: that candidate is redone from the solver cache
-                out[row["key"]] = row
-        return out
+        return {row["key"]: row for row in read_jsonl(self.path) if "key" in row}
 
     def append(self, row: dict[str, Any]) -> None:
-        with open(self.path, "a") as fh:
-            fh.write(json.dumps(row) + "\n")
-            fh.flush()
-            os.fsync(fh.fileno())
+        append_jsonl(self.path, row)
 
 
 def run_sweep(
@@ -209,7 +195,7 @@ def run_sweep(
     elif executor == "dask":
         _run_dask(todo, settings, store, keys, scheduler, progress)
     else:
-        raise ValueError(f"unknown executor '{executor}'; choose local or dask")
+        raise UserInputError(f"unknown executor '{executor}'; choose local or dask")
     rows = store.rows()
     result = [rows[keys[c.name]] for c in candidates if keys[c.name] in rows]
     return result + [dict(r) for r in invalid]
@@ -221,12 +207,10 @@ def _solve_on_worker(candidate: Candidate, settings: EvalSettings) -> tuple[str,
     import time
 
     from groundplane.design import Design
-    from solvers.cache import BeamCache
-    from solvers.nec import NecSolver
+    from solvers.engines import BeamCache
 
     t0 = time.perf_counter()
-    beam = NecSolver(mesh=settings.mesh_settings(), workers=0, progress=False).solve(
-        Design(candidate.plane, settings.soil), settings.freqs_mhz)
+    beam = settings.make_solver(workers=0).solve(Design(candidate.plane, settings.soil), settings.freqs_mhz)
     return str(BeamCache().path(beam.meta["cache_key"])), time.perf_counter() - t0
 
 
@@ -236,7 +220,7 @@ def _run_dask(todo, settings, store, keys, scheduler, progress) -> None:
 
     from groundplane.beam import Beam
 
-    from .objective import score
+    from .evaluate import score
 
     cluster = None
     if scheduler:

@@ -1,43 +1,70 @@
-"""``groundplane solve``: run the NEC-2 adapter on one candidate and write a beam file."""
+"""``groundplane solve``, and the solver options every command that solves shares."""
 from __future__ import annotations
 
 import argparse
 import sys
 from pathlib import Path
+from typing import Any, Mapping
+
+from groundplane.cli import CLIError, add_shape_options, command, shape_from_args
+from groundplane.design import Soil
+from groundplane.errors import ConfigError
+from groundplane.options import add_options, build, from_args, option_keys
+
+from .engines import ENGINES
+from .engines.base import SolveSettings
 
 
-def register(sub) -> None:
-    from groundplane.cli import add_shape_arguments
+def add_solve_options(p: argparse.ArgumentParser) -> None:
+    """Soil, engine, frequencies and every engine's model options (generated from their
+    settings dataclasses, so each command that solves takes the same flags)."""
+    add_options(p, Soil, "soil (MRO by default)")
+    add_options(p, SolveSettings, "solver")
+    for name, cls in ENGINES.items():
+        add_options(p, cls.settings_class, f"{name} model (--engine {name})")
 
-    s = sub.add_parser("solve", help="solve a candidate with NEC-2 and write the native beam file")
-    add_shape_arguments(s, required=False)
-    s.add_argument("--ground", choices=["soil", "pec"], default="soil",
+
+def solve_options(args: argparse.Namespace) -> tuple[Soil, SolveSettings, Any]:
+    """(soil, solve settings, engine settings) from the parsed command line."""
+    solve = from_args(SolveSettings, args)
+    if solve.engine not in ENGINES:
+        raise CLIError(f"--engine {solve.engine}: choose one of {', '.join(ENGINES)}")
+    return from_args(Soil, args), solve, from_args(ENGINES[solve.engine].settings_class, args)
+
+
+def solve_options_from_mapping(values: Mapping[str, Any], where: str) -> tuple[Soil, SolveSettings, Any]:
+    """The same from a sweep file's ``[solver]`` table (strictly typed; unknown keys refused)."""
+    engine = values.get("engine", SolveSettings().engine)
+    if engine not in ENGINES:
+        raise ConfigError(f"{where}engine '{engine}': choose one of {', '.join(ENGINES)}")
+    owners = (Soil, SolveSettings, ENGINES[engine].settings_class)
+    known = set().union(*(option_keys(c) for c in owners))
+    unknown = set(values) - known
+    if unknown:
+        raise ConfigError(f"{where}unknown key(s) {sorted(unknown)}; expected some of {sorted(known)}")
+    soil, solve, model = (build(c, {k: v for k, v in values.items() if k in option_keys(c)}, where) for c in owners)
+    return soil, solve, model
+
+
+@command("solve", "solve a candidate with an EM engine (NEC-2 by default) and write the native beam file")
+def setup_solve(p: argparse.ArgumentParser):
+    add_shape_options(p, required=False)
+    p.add_argument("--ground", choices=["soil", "pec"], default="soil",
                    help="lossy soil under the plate (default) or infinite PEC ground with no plate")
-    s.add_argument("--eps-r", type=float, default=3.5, help="soil relative permittivity (default 3.5)")
-    s.add_argument("--sigma", type=float, default=0.02, help="soil conductivity S/m (default 0.02)")
-    s.add_argument("--freqs", default="40:100:1", help="MHz: LO:HI:STEP (inclusive) or a list (default 40:100:1)")
-    s.add_argument("--mesh", type=float, default=0.5, metavar="SPACING", help="plate wire-grid spacing m (default 0.5)")
-    s.add_argument("--wire-radius", type=float, default=0.01, help="plate wire radius m (default 0.01)")
-    s.add_argument("--plate-height", type=float, default=0.05, help="plate height above soil m (default 0.05)")
-    s.add_argument("--refine-centre", type=float, nargs=2, metavar=("HALF_WIDTH", "FACTOR"),
-                   help="a grid FACTOR times finer inside |x|,|y| <= HALF_WIDTH m (where the near field is)")
-    s.add_argument("--blade-cells", type=int, nargs=2, default=(12, 10), metavar=("NX", "NY"))
-    s.add_argument("--no-gain-calibration", action="store_true",
-                   help="use NEC's input power as is (see solvers/nec.py for why the default calibrates)")
-    s.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
-    s.add_argument("--no-cache", action="store_true", help="neither read nor write the beam cache")
-    s.add_argument("--deck", metavar="FILE.nec", help="also write the NEC-2 input deck")
-    s.add_argument("-o", "--output", required=True, help="beam.npz")
-    s.set_defaults(func=cmd_solve)
+    add_solve_options(p)
+    p.add_argument("--no-cache", action="store_true", help="neither read nor write the beam cache")
+    p.add_argument("--deck", metavar="FILE.nec", help="also write the NEC-2 input deck")
+    p.add_argument("-o", "--output", required=True, help="beam.npz")
+    return run_solve
 
 
-def cmd_solve(args: argparse.Namespace) -> int:
-    from groundplane.cli import CLIError, shape_from_args
-    from groundplane.design import Design, InfinitePEC, Soil
+def run_solve(args: argparse.Namespace) -> int:
+    from groundplane.design import Design, InfinitePEC
 
-    from .nec import MeshSettings, NecSolver, build_model, parse_freqs
+    from .engines import make_solver
 
     plane = shape_from_args(args)
+    soil, solve, model_settings = solve_options(args)
     if args.ground == "pec":
         if plane is not None:
             raise CLIError("--ground pec solves the blade over infinite perfect ground: give no shape")
@@ -45,34 +72,20 @@ def cmd_solve(args: argparse.Namespace) -> int:
     else:
         if plane is None:
             raise CLIError("a solve over soil needs a ground plane: --preset NAME or a shape (or use --ground pec)")
-        design = Design(plane, Soil(args.eps_r, args.sigma))
-    mesh = MeshSettings(
-        spacing=args.mesh, plate_wire_radius=args.wire_radius, plate_height=args.plate_height,
-        blade_cells=tuple(args.blade_cells),
-        gain_calibration="none" if args.no_gain_calibration else "pec",
-        **_refine(args.refine_centre),
-    )
-    freqs = parse_freqs(args.freqs)
+        design = Design(plane, soil)
     if args.deck:
-        model = build_model(design, mesh)
-        Path(args.deck).write_text(model.to_deck(freqs, design.label()))
+        if solve.engine != "nec":
+            raise CLIError("--deck writes a NEC-2 deck: use it with --engine nec")
+        from .engines.nec import build_model
+
+        model = build_model(design, model_settings)
+        Path(args.deck).write_text(model.to_deck(solve.freqs_mhz, design.label()))
         print(f"wrote {args.deck} ({model.n_segments} segments)")
-    solver = NecSolver(mesh=mesh, workers=args.workers, progress=sys.stderr.isatty(), use_cache=not args.no_cache)
-    beam = solver.solve(design, freqs)
+    solver = make_solver(solve.engine, model_settings, workers=solve.workers, progress=sys.stderr.isatty(),
+                         use_cache=not args.no_cache)
+    beam = solver.solve(design, solve.freqs_mhz)
     out = beam.save(args.output)
     secs = sum(beam.meta.get("seconds_per_frequency", []))
-    print(f"wrote {out}: {design.label()}, {beam.meta['n_segments']} segments, {freqs.size} frequencies "
-          f"({secs:.0f} s of solver time; cache key {beam.meta['cache_key']})")
+    print(f"wrote {out}: {design.label()}, {beam.meta.get('n_segments', '?')} segments, {len(solve.freqs_mhz)} "
+          f"frequencies ({secs:.0f} s of solver time; cache key {beam.meta['cache_key']})")
     return 0
-
-
-def _refine(values) -> dict:
-    """--refine-centre HALF_WIDTH FACTOR as MeshSettings fields (FACTOR must be whole)."""
-    if not values:
-        return {}
-    half, factor = values
-    if factor != int(factor):
-        from groundplane.cli import CLIError
-
-        raise CLIError(f"--refine-centre: FACTOR must be a whole number, got {factor:g}")
-    return {"refine_half_width": float(half), "refine_factor": int(factor)}

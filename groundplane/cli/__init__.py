@@ -1,0 +1,136 @@
+"""The ``groundplane`` command: a small root application that sub-commands attach to.
+
+Command modules (``groundplane.cli.commands``, ``solvers.cli``, ``optimise.cli``, or a
+third party's) register themselves with :func:`command` when imported; the root finds
+them through the ``groundplane.commands`` entry points and never imports them by name,
+so dependencies point one way. Heavy libraries (astropy, cadquery, PyNEC, nlopt, dask,
+matplotlib) are imported inside the commands that need them, so start-up stays fast.
+
+Errors: a :class:`~groundplane.errors.UserInputError` is printed as one line with exit
+status 2, a :class:`~groundplane.errors.SolverError` as one line with status 1; anything
+else is a bug and keeps its traceback.
+"""
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+from typing import Any, Callable, Sequence
+
+from .. import shapes as sh
+from ..errors import GroundplaneError, UserInputError
+
+COMMAND_GROUP = "groundplane.commands"
+COMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], Callable[[argparse.Namespace], int]]]] = {}
+
+
+class CLIError(UserInputError):
+    """A command-line mistake: printed as one line, exit status 2."""
+
+
+def command(name: str, help: str):
+    """Register a sub-command: the decorated ``setup(parser)`` adds its arguments and
+    returns the function that runs it (``run(args) -> exit status``)."""
+    def deco(setup):
+        COMMANDS[name] = (help, setup)
+        return setup
+    return deco
+
+
+def load_commands() -> None:
+    """Import every module the installed distributions list as groundplane commands."""
+    from importlib.metadata import entry_points
+
+    for ep in entry_points(group=COMMAND_GROUP):
+        ep.load()
+
+
+def build_parser() -> argparse.ArgumentParser:
+    load_commands()
+    p = argparse.ArgumentParser(prog="groundplane", description="Design ground planes for low-frequency "
+                                "radio antennas: shapes, MoM solves, the chromaticity FoM, optimisation.")
+    sub = p.add_subparsers(dest="command", required=True)
+    for name in sorted(COMMANDS):
+        help, setup = COMMANDS[name]
+        sp = sub.add_parser(name, help=help, description=help)
+        sp.set_defaults(run=setup(sp))
+    return p
+
+
+def invocation() -> str:
+    """The command line as typed (for reports that say how to regenerate them)."""
+    return "groundplane " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``groundplane`` command."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.run(args) or 0)
+    except UserInputError as exc:
+        print(f"groundplane {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except GroundplaneError as exc:  # a solver that failed: not a bug in this program
+        print(f"groundplane {args.command}: failed: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"groundplane {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+# ----------------------------------------------------------------- shape options
+def add_shape_options(p: argparse.ArgumentParser, required: bool = True) -> None:
+    """``--preset NAME`` or ``SHAPE --param ...``, generated from the registered families."""
+    p.add_argument("shape", nargs="?", choices=sorted(sh.SHAPES), help="shape family (or use --preset)")
+    p.add_argument("--preset", choices=sorted(sh.PRESETS), help="a design-study preset")
+    g = p.add_argument_group("shape parameters (metres unless stated)")
+    users: dict[str, list[str]] = {}
+    helps: dict[str, set[str]] = {}
+    params: dict[str, sh.Param] = {}
+    for kind, cls in sh.SHAPES.items():
+        for prm in cls.parameters():
+            users.setdefault(prm.name, []).append(kind)
+            helps.setdefault(prm.name, set()).add(prm.help)
+            params.setdefault(prm.name, prm)
+    for name, prm in params.items():
+        metavar = "N" if prm.type is int else "V" if prm.type is float else "TEXT"
+        g.add_argument(prm.flag, dest=f"shape_{name}", default=None, metavar=metavar,
+                       help=f"[{', '.join(users[name])}] " + " / ".join(sorted(helps[name])))
+    p.set_defaults(_shape_required=required)
+
+
+def _shape_value(kind: str, prm: sh.Param, text: str) -> Any:
+    if prm.parse is not None:
+        return prm.parse(text)
+    try:
+        return int(text) if prm.type is int else float(text)
+    except ValueError:
+        what = "a whole number" if prm.type is int else "a number"
+        raise CLIError(f"{kind}: {prm.flag} expects {what}, got '{text}'") from None
+
+
+def shape_from_args(args: argparse.Namespace) -> sh.GroundPlane | None:
+    """The ground plane the command line describes (None when none is given and none is required)."""
+    if args.preset and args.shape:
+        raise CLIError("give either --preset or a shape with its parameters, not both")
+    given = {k[len("shape_"):]: v for k, v in vars(args).items() if k.startswith("shape_") and v is not None}
+    if args.preset:
+        if given:
+            raise CLIError(f"--preset {args.preset} takes no shape parameters (got {', '.join(sorted(given))})")
+        return sh.preset(args.preset)
+    if not args.shape:
+        if given:
+            raise CLIError("shape parameters given without a shape: name the family (e.g. 'square --side 10')")
+        if args._shape_required:
+            raise CLIError("no ground plane: give --preset NAME or a shape (e.g. 'square --side 10')")
+        return None
+    cls = sh.SHAPES[args.shape]
+    own = {p.name: p for p in cls.parameters()}
+    extra = sorted(set(given) - set(own))
+    if extra:
+        raise CLIError(f"{args.shape} does not take {', '.join('--' + e.replace('_', '-') for e in extra)}")
+    missing = [p.flag for p in own.values() if p.required and p.name not in given]
+    if missing:
+        raise CLIError(f"{args.shape} needs {', '.join(missing)}")
+    return sh.from_dict({"shape": args.shape, **{k: _shape_value(args.shape, own[k], v) for k, v in given.items()}})

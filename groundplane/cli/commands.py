@@ -1,0 +1,126 @@
+"""The core's commands: ``fom``, ``shapes``, ``export``, ``convert``."""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from .. import shapes as sh
+from ..fom import FomSettings
+from ..options import add_options, from_args
+from . import add_shape_options, command, shape_from_args
+
+
+def _format_choices() -> list[str]:
+    from solvers.io import format_names
+
+    return format_names()
+
+
+@command("fom", "score beam file(s): LST-averaged chromaticity FoM (mK)")
+def setup_fom(p: argparse.ArgumentParser):
+    p.add_argument("paths", nargs="+", help="beam file(s); several FEKO quadrant .ffe files make one beam")
+    p.add_argument("--format", default="auto", choices=_format_choices(), help="beam file format (default: detect)")
+    add_options(p, FomSettings, "Figure of Merit (defaults: the paper's)")
+    p.add_argument("--beam-correction", metavar="MODEL_BEAM",
+                   help="divide spectra by the beam-correction factor of this model beam first")
+    p.add_argument("--metrics", action="store_true", help="also the secondary chromaticity metrics")
+    p.add_argument("--smooth-frequency", type=int, metavar="DEG",
+                   help="diagnostic: score the beam after a degree-DEG Chebyshev fit of G(nu) per direction, "
+                        "which removes narrow-band solver artefacts (and any real structure that narrow)")
+    p.add_argument("--json", action="store_true", help="print a JSON object")
+    p.add_argument("--plot", metavar="FILE.png", help="FoM vs LST and residual spectra")
+    return run_fom
+
+
+def run_fom(args: argparse.Namespace) -> int:
+    from ..beam import Beam
+    from ..fom import chromaticity_report, figure_of_merit
+
+    beam = Beam.from_file(args.paths, args.format)
+    if args.smooth_frequency:
+        beam = beam.frequency_smoothed(args.smooth_frequency)
+    settings = from_args(FomSettings, args)
+    correction = Beam.from_file(args.beam_correction) if args.beam_correction else None
+    result = figure_of_merit(beam, settings, correction_beam=correction, progress=sys.stderr.isatty())
+    if args.plot:
+        from ..plots import fom_figure
+
+        fom_figure([result], [Path(str(args.paths[0])).name], args.plot)
+    report = chromaticity_report(beam, settings) if args.metrics else None
+    if args.json:
+        out = result.as_json()
+        out["beam"] = dict(beam.meta)
+        if report is not None:
+            out["chromaticity"] = report
+        print(json.dumps(out))
+        return 0
+    src = beam.meta.get("source", args.paths[0])
+    print(f"{result.lst_averaged_fom_mk:.2f} mK  LST-averaged FoM of {src}")
+    print(f"  FoM min {result.fom.min() * 1e3:.1f} mK at LST {result.lst_hours[result.fom.argmin()]:.1f} h, "
+          f"max {result.fom.max() * 1e3:.1f} mK at LST {result.lst_hours[result.fom.argmax()]:.1f} h; "
+          f"fit {settings.fit_band_mhz[0]:g}-{settings.fit_band_mhz[1]:g} MHz, {settings.n_terms}-term LinLog")
+    for k, v in (report or {}).get("gain_poly3_residuals", {}).items():
+        if isinstance(v, dict):
+            print(f"  3-term poly residual p-p of G at {k}: {v['peak_to_peak']:.4f}")
+    if args.plot:
+        print(f"  plot: {args.plot}")
+    return 0
+
+
+@command("shapes", "list the design-study presets and the shape families")
+def setup_shapes(p: argparse.ArgumentParser):
+    p.add_argument("--json", action="store_true")
+    return run_shapes
+
+
+def run_shapes(args: argparse.Namespace) -> int:
+    rows = [{"name": n, **s.summary()} for n, s in sh.PRESETS.items()]
+    if args.json:
+        print(json.dumps(rows, indent=2))
+        return 0
+    print(f"{'name':16s} {'shape':9s} {'metal area (m^2)':>16s} {'extent (m)':>10s} {'edges':>5s}  parameters")
+    for r in rows:
+        params = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in r["params"].items())
+        print(f"{r['name']:16s} {r['shape']:9s} {r['metal_area_m2']:16.2f} {r['extent_m']:10.2f} "
+              f"{r['edge_count']:5d}  {params}")
+    print("\nfamilies: " + "; ".join(f"{k} ({', '.join(p.name for p in c.parameters())})" for k, c in sh.SHAPES.items()))
+    return 0
+
+
+@command("export", "write a ground plane as STEP, STL, SVG or PNG")
+def setup_export(p: argparse.ArgumentParser):
+    add_shape_options(p)
+    p.add_argument("-o", "--output", required=True, help="FILE.step | FILE.stl | FILE.svg | FILE.png")
+    p.add_argument("--thickness", type=float, default=0.002, help="plate thickness in m (default 0.002)")
+    p.add_argument("--with-antenna", action="store_true", help="STEP assembly with the blade panels")
+    return run_export
+
+
+def run_export(args: argparse.Namespace) -> int:
+    from .. import cad
+
+    shape = shape_from_args(args)
+    assert shape is not None
+    out = cad.export(shape, args.output, thickness=args.thickness, with_antenna=args.with_antenna)
+    print(f"wrote {out} ({shape.describe()}, metal area {shape.metal_area:.2f} m^2, extent {shape.extent:.2f} m)")
+    return 0
+
+
+@command("convert", "read any supported beam export, write the native .npz")
+def setup_convert(p: argparse.ArgumentParser):
+    p.add_argument("paths", nargs="+")
+    p.add_argument("--format", default="auto", choices=_format_choices())
+    p.add_argument("-o", "--output", required=True)
+    return run_convert
+
+
+def run_convert(args: argparse.Namespace) -> int:
+    from ..beam import Beam
+
+    beam = Beam.from_file(args.paths, args.format)
+    out = beam.save(args.output)
+    print(f"wrote {out}: {beam.freqs_mhz.size} frequencies {beam.freqs_mhz.min():g}-{beam.freqs_mhz.max():g} MHz, "
+          f"{beam.theta_deg.size} x {beam.phi_deg.size} directions")
+    return 0

@@ -1,0 +1,44 @@
+"""One error hierarchy for the whole toolkit.
+
+``UserInputError`` and its subclasses are mistakes the user can correct (a file, a flag,
+a TOML key, an impossible geometry): the CLI prints them as one line and exits 2.
+``SolverError`` is a solver that is unusable or failed: one line, exit 1. Anything else
+is a bug and keeps its traceback.
+"""
+from __future__ import annotations
+
+
+class GroundplaneError(Exception):
+    """Base of every error this toolkit raises on purpose."""
+
+
+class UserInputError(GroundplaneError, ValueError):
+    """Input the user can correct; the message names what is wrong and where."""
+
+
+class BeamFormatError(UserInputError):
+    """A beam file or array that is malformed, truncated or inconsistent."""
+
+
+class ShapeError(UserInputError):
+    """Impossible ground-plane geometry."""
+
+
+class SettingsError(UserInputError):
+    """Impossible solver or Figure-of-Merit settings."""
+
+
+class ConfigError(UserInputError):
+    """A sweep file that cannot be used; names the file and the entry."""
+
+
+class SolverError(GroundplaneError, RuntimeError):
+    """A solver that is missing, known to be wrong, or failed on a candidate."""
+
+
+class EngineError(SolverError):
+    """The engine is missing, known to be wrong for this case, or failed its golden test."""
+
+
+class SolveError(SolverError):
+    """A solve failed; names the candidate and the reason."""

@@ -1,0 +1,189 @@
+"""One candidate in, one scored row out: the unit every sweep, optimiser step and the
+study reproductions are made of. Candidate, settings and the result row are defined here
+once.
+
+A candidate's beam comes from an engine (through its cache) or from a solver export file
+(FEKO/CST/HFSS/npz), so exported designs join the same ranking. Scoring runs in this
+process (healpy); engines run in worker processes.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from groundplane.beam import Beam
+from groundplane.design import Design, Soil
+from groundplane.errors import UserInputError
+from groundplane.fom import FomSettings, figure_of_merit
+from groundplane.shapes import GroundPlane, to_dict
+from solvers.engines import DEFAULT_FREQS_MHZ, ENGINES, Solver, make_solver
+from solvers.io import load_beam
+
+RESIDUAL_LSTS_H = (2.0, 6.0, 12.0, 18.0)
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A named ground plane (solved with NEC-2) or a beam file (loaded)."""
+
+    name: str
+    plane: GroundPlane | None = None
+    beam_paths: tuple[str, ...] = ()
+    beam_format: str = "auto"
+    metal_area_m2: float | None = None  # for beam files whose shape we do not know
+
+    def __post_init__(self) -> None:
+        if (self.plane is None) == (not self.beam_paths):
+            raise UserInputError(f"candidate '{self.name}': give either a shape/preset or a beam file, not both or neither")
+
+    def identity(self) -> dict[str, Any]:
+        if self.plane is not None:
+            return {"plane": to_dict(self.plane)}
+        files = []
+        for p in self.beam_paths:
+            st = Path(p).stat() if Path(p).exists() else None
+            files.append([str(p), st.st_size if st else None, st.st_mtime_ns if st else None])
+        return {"beam_files": files, "format": self.beam_format}
+
+
+@dataclass(frozen=True)
+class EvalSettings:
+    """How candidates are solved and scored (the same for every row of one sweep)."""
+
+    soil: Soil = field(default_factory=Soil)
+    solver: Any = None  # the engine's settings dataclass (e.g. NecSettings); None = its defaults
+    freqs_mhz: tuple[float, ...] = DEFAULT_FREQS_MHZ
+    fom: FomSettings = field(default_factory=FomSettings)
+    workers: int = 2
+    engine: str = "nec"
+
+    def solver_settings(self) -> Any:
+        return self.solver if self.solver is not None else ENGINES[self.engine].settings_class()
+
+    def make_solver(self, progress: bool = False, workers: int | None = None) -> Solver:
+        return make_solver(self.engine, self.solver_settings(), workers=self.workers if workers is None else workers,
+                           progress=progress)
+
+    def identity(self) -> dict[str, Any]:
+        ident = {
+            "soil": [self.soil.eps_r, self.soil.sigma],
+            "mesh": self.solver_settings().as_dict(),
+            "freqs": [round(float(f), 6) for f in self.freqs_mhz],
+            "fom": self.fom.as_dict(),
+        }
+        if self.engine != "nec":  # rows solved with NEC keep the keys they always had
+            ident["engine"] = self.engine
+        return ident
+
+    def describe(self) -> str:
+        """One line for reports: engine, model settings, band, fit band."""
+        f = self.freqs_mhz
+        step = f"{f[1] - f[0]:g} MHz steps" if len(f) > 1 else "one frequency"
+        return (f"engine {self.engine} {json.dumps(self.solver_settings().as_dict())}; soil eps_r {self.soil.eps_r:g}, "
+                f"sigma {self.soil.sigma:g} S/m; {len(f)} frequencies {min(f):g}-{max(f):g} MHz ({step}); "
+                f"LinLog fit {self.fom.fit_band_mhz[0]:g}-{self.fom.fit_band_mhz[1]:g} MHz, {self.fom.n_lst} LSTs")
+
+
+def row_key(candidate: Candidate, settings: EvalSettings) -> str:
+    """A stable key for (candidate, settings): a sweep never scores the same pair twice."""
+    blob = json.dumps({"c": candidate.identity(), "s": settings.identity()}, sort_keys=True, default=str)
+    return hashlib.sha256(blob.encode()).hexdigest()[:20]
+
+
+def candidate_beam(candidate: Candidate, settings: EvalSettings, progress: bool = False) -> tuple[Beam, float]:
+    """The candidate's beam (solved or loaded) and the seconds it took."""
+    t0 = time.perf_counter()
+    if candidate.plane is None:
+        return load_beam(list(candidate.beam_paths), candidate.beam_format), time.perf_counter() - t0
+    beam = settings.make_solver(progress).solve(Design(candidate.plane, settings.soil), settings.freqs_mhz)
+    return beam, time.perf_counter() - t0
+
+
+SMOOTHING_DEGREE = 12  # Chebyshev degree over the band: keeps structure down to a ~10 MHz period
+
+
+def smoothed_fom_mk(beam: Beam, settings: EvalSettings) -> float | None:
+    """LST-averaged FoM of the beam after ``Beam.frequency_smoothed(SMOOTHING_DEGREE)``;
+    None when the band has too few frequencies for that fit."""
+    if beam.freqs_mhz.size < 2 * SMOOTHING_DEGREE + 1:
+        return None
+    return float(figure_of_merit(beam.frequency_smoothed(SMOOTHING_DEGREE), settings.fom).lst_averaged_fom_mk)
+
+
+def solver_cpu_s(beam: Beam) -> float | None:
+    """NEC time summed over frequencies, from the beam's own timings (None for exports)."""
+    secs = beam.meta.get("seconds_per_frequency")
+    return None if secs is None else round(float(np.sum(secs)), 2)
+
+
+def score(candidate: Candidate, beam: Beam, settings: EvalSettings, seconds: float) -> dict[str, Any]:
+    """The result row of a candidate whose beam is known."""
+    result = figure_of_merit(beam, settings.fom)
+    fom_mk = float(result.lst_averaged_fom_mk)
+    if not math.isfinite(fom_mk):
+        raise ArithmeticError(f"candidate '{candidate.name}': FoM is not finite")
+    residuals = {}
+    for h in RESIDUAL_LSTS_H:
+        i = int(np.argmin(np.abs(result.lst_hours - h)))
+        residuals[f"{h:g}"] = (result.residuals[:, i] * 1e3).round(4).tolist()
+    return {
+        **row_head(candidate, "ok"),
+        "lst_averaged_fom_mk": fom_mk,
+        # diagnostic: the FoM once narrow-band structure (solver artefacts) is smoothed out
+        # of G(nu); see results/spectral_artefacts.md
+        "fom_smoothed_mk": smoothed_fom_mk(beam, settings),
+        "fom_mk": (result.fom * 1e3).round(4).tolist(),
+        "lst_hours": result.lst_hours.round(6).tolist(),
+        "fit_freqs_mhz": result.freqs_mhz[result.fit_mask].tolist(),
+        "residuals_mk": residuals,
+        "solve_s": round(seconds, 2),
+        # what the solve cost, from the beam's own per-frequency timings: a cache hit has
+        # solve_s ~ 0 but still reports this (wall time is about this over the worker count)
+        "solver_cpu_s": solver_cpu_s(beam),
+        "n_segments": beam.meta.get("n_segments"),
+        "beam_cache_key": beam.meta.get("cache_key"),
+        "source": beam.meta.get("source"),
+    }
+
+
+def evaluate(candidate: Candidate, settings: EvalSettings, progress: bool = False) -> dict[str, Any]:
+    """Solve (or load) and score one candidate. Errors become a row with status 'failed'
+    and the reason, so one bad candidate never stops a sweep."""
+    try:
+        beam, secs = candidate_beam(candidate, settings, progress)
+        return score(candidate, beam, settings, secs)
+    except KeyboardInterrupt:
+        raise
+    except Exception as exc:  # noqa: BLE001 - reported in the row, never swallowed silently
+        return failed_row(candidate, f"{type(exc).__name__}: {exc}")
+
+
+def row_head(candidate: Candidate, status: str) -> dict[str, Any]:
+    """The columns every result row starts with: who the candidate is and how it ended."""
+    plane = candidate.plane
+    return {
+        "name": candidate.name,
+        "status": status,
+        "shape": plane.kind if plane else "beam-file",
+        "params": plane.params() if plane else {"beam": list(candidate.beam_paths)},
+        "metal_area_m2": plane.metal_area if plane else candidate.metal_area_m2,
+        "extent_m": plane.extent if plane else None,
+    }
+
+
+def failed_row(candidate: Candidate, reason: str) -> dict[str, Any]:
+    """The row of a candidate whose solve or scoring failed."""
+    return {**row_head(candidate, "failed"), "error": reason, "lst_averaged_fom_mk": None}
+
+
+def invalid_row(name: str, shape: str, params: dict[str, Any], reason: str) -> dict[str, Any]:
+    """The row of a family member whose geometry is impossible (kept in the report)."""
+    return {"name": name, "status": "invalid", "shape": shape, "params": params, "metal_area_m2": None,
+            "extent_m": None, "error": reason, "lst_averaged_fom_mk": None}

@@ -1,0 +1,56 @@
+"""Helpers shared by the studies (not a study itself)."""
+from __future__ import annotations
+
+import platform
+import time
+from typing import Iterable
+
+import numpy as np
+
+from groundplane.beam import Beam
+from groundplane.design import Design
+from groundplane.fom import FomSettings, figure_of_merit
+from solvers.engines import DEFAULT_FREQS_MHZ
+from solvers.engines.nec import NecSettings, NecSolver
+from solvers.engines.nec.engine import engine_info
+
+FREQS = np.asarray(DEFAULT_FREQS_MHZ)
+
+
+def solve(design: Design, settings: NecSettings, freqs: Iterable[float] = FREQS) -> tuple[Beam, float]:
+    """A cached NEC solve on 2 processes, with progress; returns (beam, wall seconds)."""
+    t0 = time.perf_counter()
+    beam = NecSolver(settings, workers=2, progress=True).solve(design, freqs)
+    return beam, time.perf_counter() - t0
+
+
+def cached(design: Design, settings: NecSettings, freqs: Iterable[float] = FREQS) -> Beam | None:
+    """The cached beam of a solve, or None (never solves)."""
+    return NecSolver(settings).cached(design, freqs)
+
+
+def fom_mk(beam: Beam) -> float:
+    """LST-averaged FoM (mK) with the paper's settings."""
+    return figure_of_merit(beam, FomSettings()).lst_averaged_fom_mk
+
+
+def zenith_dbi(beam: Beam, f: float = 75.0) -> float:
+    i = int(np.argmin(np.abs(beam.freqs_mhz - f)))
+    return float(10 * np.log10(beam.gain[i, 0, 0]))
+
+
+def efficiency(beam: Beam, f: float = 75.0) -> float:
+    """Upper-hemisphere mean gain / 2 at ``f``: the fraction of power not lost in the soil."""
+    i = int(np.argmin(np.abs(beam.freqs_mhz - f)))
+    w = beam.solid_angle_weights()
+    g = beam.gain[i][: w.shape[0]]
+    return float((g * w).sum() / w.sum() / 2)
+
+
+def narrow_rms(beam: Beam, degree: int = 12) -> float:
+    """rms(G - its degree-``degree`` Chebyshev fit in frequency) / mean G: narrow-band structure."""
+    return float(np.std(beam.gain - beam.frequency_smoothed(degree).gain) / np.mean(beam.gain))
+
+
+def machine() -> str:
+    return f"{platform.machine()}, {platform.python_version()}, engine {engine_info()}"

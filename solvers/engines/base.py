@@ -1,0 +1,247 @@
+"""What every engine shares: the :class:`Solver` protocol, the engine registry, and
+:class:`FrequencySolver`, the cached, resumable, one-process-per-frequency loop an engine
+plugs its model into (so a second engine writes only its physics)."""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from typing import Any, Callable, ClassVar, Iterable, Protocol, runtime_checkable
+
+import numpy as np
+
+from groundplane.beam import Beam
+from groundplane.design import Design
+from groundplane.errors import SettingsError, SolveError, SolverError
+from groundplane.options import option, parse_freqs
+
+DEFAULT_FREQS_MHZ = tuple(float(f) for f in np.arange(40.0, 101.0))  # SPEC: 40-100 MHz, 1 MHz steps
+
+
+@dataclass(frozen=True)
+class SolveSettings:
+    """Which engine solves, at which frequencies, on how many processes."""
+
+    engine: str = option("nec", "EM engine")
+    freqs_mhz: tuple[float, ...] = option(DEFAULT_FREQS_MHZ, "frequencies (MHz): LO:HI:STEP (inclusive) or a "
+                                          "comma list (default 40:100:1)", flag="--freqs", parse=parse_freqs)
+    workers: int = option(2, "parallel solver processes (0: in this process)")
+
+    def __post_init__(self) -> None:
+        if self.workers < 0:
+            raise SettingsError(f"workers must be >= 0, got {self.workers}")
+        _freqs(self.freqs_mhz)
+
+
+@runtime_checkable
+class Solver(Protocol):
+    """An EM engine as the rest of the toolkit sees it."""
+
+    name: ClassVar[str]
+    settings_class: ClassVar[type]
+    settings: Any
+
+    def cache_key(self, design: Design, freqs_mhz: Iterable[float]) -> str: ...
+
+    def cached(self, design: Design, freqs_mhz: Iterable[float] = DEFAULT_FREQS_MHZ) -> Beam | None: ...
+
+    def solve(self, design: Design, freqs_mhz: Iterable[float] = DEFAULT_FREQS_MHZ) -> Beam: ...
+
+
+ENGINES: dict[str, type] = {}
+"""Registered engines by name (each engine package registers its solver class)."""
+
+
+def register_engine(cls: type) -> type:
+    """Class decorator: make an engine available to every command that solves."""
+    for attr in ("name", "settings_class", "solve", "cache_key", "cached"):
+        if not hasattr(cls, attr):
+            raise TypeError(f"{cls.__name__}: an engine needs '{attr}' (see solvers.engines.base.Solver)")
+    ENGINES[cls.name] = cls
+    return cls
+
+
+def make_solver(engine: str, settings: Any = None, **runtime: Any) -> Solver:
+    """An engine by name, with its settings (None: the engine's defaults)."""
+    if engine not in ENGINES:
+        raise SettingsError(f"unknown engine '{engine}'; choose one of {', '.join(ENGINES)}")
+    cls = ENGINES[engine]
+    return cls(settings if settings is not None else cls.settings_class(), **runtime)
+
+
+def worker_init() -> None:
+    """One BLAS/OpenMP thread per worker: frequencies run in parallel processes instead."""
+    os.environ["OMP_NUM_THREADS"] = "1"
+    os.environ["OPENBLAS_NUM_THREADS"] = "1"
+
+
+def process_pool(workers: int) -> ProcessPoolExecutor:
+    """Spawned worker processes (engines bundle their own OpenMP runtimes, which must not
+    share a process with healpy's)."""
+    import multiprocessing as mp
+
+    return ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"), initializer=worker_init)
+
+
+def mirror_quadrant(q: np.ndarray) -> np.ndarray:
+    """phi 0..90 of a pattern symmetric about both vertical planes -> phi 0..359."""
+    full = np.empty(q.shape[:-1] + (360,))
+    full[..., 0:91] = q
+    full[..., 91:181] = q[..., 89::-1][..., :90]  # phi 91..180 = 180 - phi in 89..0
+    full[..., 181:271] = q[..., 1:91]  # phi 181..270 = phi - 180 in 1..90
+    full[..., 271:360] = q[..., 89:0:-1]  # phi 271..359 = 360 - phi in 89..1
+    return full
+
+
+def upper_mean_gain(g: np.ndarray) -> float:
+    """Mean of G over the upper hemisphere of a [91, 360] or quadrant [91, 91] 1-degree pattern."""
+    full = mirror_quadrant(g) if g.shape[-1] == 91 else g
+    w = Beam([1.0], np.arange(91.0), np.arange(360.0), full[None]).solid_angle_weights()
+    return float((full * w).sum() / w.sum())
+
+
+@dataclass(frozen=True)
+class Plan:
+    """An engine's model of one design, ready to solve frequency by frequency.
+
+    ``job(payload, freq)`` runs in a worker process and returns
+    ``(gain [91, n_phi], extras {name: float})``; ``meta`` goes into the beam's metadata.
+    """
+
+    job: Callable[[Any, float], tuple[np.ndarray, dict[str, float]]]
+    payload: Any
+    n_phi: int  # 91: one quadrant, mirrored; 360: the full circle
+    meta: dict[str, Any] = field(default_factory=dict)
+    label: str = ""
+
+
+def _timed(args: tuple) -> tuple[float, np.ndarray, dict[str, float], float]:
+    job, payload, freq = args
+    t0 = time.perf_counter()
+    gain, extras = job(payload, freq)
+    return freq, gain, extras, time.perf_counter() - t0
+
+
+class FrequencySolver:
+    """The solve loop shared by engines: cache by content, resume per frequency, one
+    worker process per frequency. Subclasses define ``name``, ``settings_class``,
+    ``model_version``, ``engine_identity()``, ``check(design)`` and ``plan(design)``."""
+
+    name: ClassVar[str] = ""
+    settings_class: ClassVar[type] = object
+    model_version: ClassVar[int] = 1
+
+    def __init__(self, settings: Any = None, *, workers: int = 2, progress: bool = False,
+                 use_cache: bool = True) -> None:
+        self.settings = settings if settings is not None else self.settings_class()
+        self.workers = workers  # processes; 0 runs the engine in this process
+        self.progress = progress
+        self.use_cache = use_cache
+
+    # --------------------------------------------------------------- engine hooks
+    def engine_identity(self) -> dict[str, str]:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def check(self, design: Design) -> None:
+        """Refuse a design or engine this solver cannot do right (before any work)."""
+
+    def plan(self, design: Design) -> Plan:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------- caching
+    def identity(self, design: Design, freqs: np.ndarray) -> dict[str, Any]:
+        return {
+            "model_version": self.model_version,
+            "design": json.loads(design.canonical()),
+            "engine": self.engine_identity(),
+            "mesh": self.settings.as_dict(),
+            "freqs_mhz": [round(float(f), 9) for f in freqs],
+        }
+
+    def cache_key(self, design: Design, freqs_mhz: Iterable[float]) -> str:
+        ident = self.identity(design, _freqs(freqs_mhz))
+        return hashlib.sha256(json.dumps(ident, sort_keys=True).encode()).hexdigest()[:32]
+
+    def cached(self, design: Design, freqs_mhz: Iterable[float] = DEFAULT_FREQS_MHZ) -> Beam | None:
+        """The cached beam of this solve, or None; never solves."""
+        from .cache import BeamCache
+
+        return BeamCache().get(self.cache_key(design, freqs_mhz))
+
+    # --------------------------------------------------------------------- solve
+    def solve(self, design: Design, freqs_mhz: Iterable[float] = DEFAULT_FREQS_MHZ) -> Beam:
+        """The design's beam at ``freqs_mhz`` (from the cache when it is there)."""
+        from .cache import BeamCache
+
+        freqs = _freqs(freqs_mhz)
+        cache = BeamCache() if self.use_cache else None
+        key = self.cache_key(design, freqs)
+        if cache is not None and (hit := cache.get(key)) is not None:
+            return hit
+        self.check(design)
+        plan = self.plan(design)
+        results = cache.partial(key) if cache is not None else {}
+        todo = [float(f) for f in freqs if float(f) not in results]
+        for f, gain, extras, secs in self._run(plan, todo, design, freqs.size):
+            results[f] = (gain, secs, extras)
+            if cache is not None:
+                cache.put_partial(key, f, gain, secs, **extras)
+        beam = self._assemble(design, freqs, plan, results, key)
+        if cache is not None:
+            cache.put(key, beam)
+        return beam
+
+    def _run(self, plan: Plan, todo: list[float], design: Design, n_total: int):
+        """Yield (freq, gain, extras, seconds) as frequencies finish (saved one by one)."""
+        bar = None
+        if self.progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=n_total, initial=n_total - len(todo), unit="freq", desc=f"{self.name} {plan.label}")
+        pool = process_pool(self.workers) if self.workers >= 1 and todo else None
+        jobs = [(plan.job, plan.payload, f) for f in todo]
+        try:
+            for out in (pool.map(_timed, jobs) if pool else map(_timed, jobs)):
+                if bar:
+                    bar.update(1)
+                yield out
+        except SolverError as exc:
+            raise SolveError(f"{design.label()}: {exc}") from exc
+        except Exception as exc:  # the engine's own failure, in a worker: name the candidate
+            raise SolveError(f"{design.label()}: {self.name} solve failed ({type(exc).__name__}: {exc})") from exc
+        finally:
+            if pool is not None:
+                pool.shutdown(cancel_futures=True)
+            if bar:
+                bar.close()
+
+    def _assemble(self, design: Design, freqs: np.ndarray, plan: Plan, results: dict, key: str) -> Beam:
+        gains = np.stack([results[float(f)][0] for f in freqs])
+        if plan.n_phi == 91:
+            gains = mirror_quadrant(gains)
+        extras: dict[str, list[float]] = {}
+        for f in freqs:
+            for k, v in results[float(f)][2].items():
+                extras.setdefault(k, []).append(v)
+        return Beam(freqs, np.arange(91.0), np.arange(360.0), gains, {
+            "source": f"{self.name} solve of {design.label()}",
+            "solver": self.name,
+            "engine": self.engine_identity(),
+            "design": json.loads(design.canonical()),
+            "mesh": self.settings.as_dict(),
+            **plan.meta,
+            "mirror_symmetric_solve": plan.n_phi == 91,
+            **extras,
+            "seconds_per_frequency": [results[float(f)][1] for f in freqs],
+            "cache_key": key,
+        })
+
+
+def _freqs(freqs_mhz: Iterable[float]) -> np.ndarray:
+    f = np.asarray(list(freqs_mhz), dtype=float)
+    if f.size == 0 or not np.all(np.isfinite(f)) or np.any(f <= 0):
+        raise SettingsError("frequencies must be positive MHz")
+    return f

@@ -1,0 +1,77 @@
+"""Content-addressed beam cache: a solved candidate is never solved twice.
+
+``<cache>/beams/<key>.npz`` holds finished beams; ``<cache>/partial/<key>/<freq>.npz``
+holds each frequency as it completes, so an interrupted solve resumes where it stopped.
+Every write is a temp file + rename, so a crash leaves at most a stray temp file, which
+is never read. An entry that does not read back (truncated, damaged, or stored under
+another key) is deleted and recomputed, never trusted.
+"""
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from groundplane.beam import Beam, BeamFormatError
+from groundplane.files import atomic_path
+from groundplane.sky import cache_dir
+
+TMP_SUFFIX = ".tmp.npz"
+
+
+class BeamCache:
+    """Finished beams and per-frequency partial results, keyed by a solver's cache key."""
+
+    def __init__(self, root: str | Path | None = None) -> None:
+        self.root = Path(root) if root else cache_dir()
+        (self.root / "beams").mkdir(parents=True, exist_ok=True)
+        (self.root / "partial").mkdir(parents=True, exist_ok=True)
+
+    def path(self, key: str) -> Path:
+        return self.root / "beams" / f"{key}.npz"
+
+    def get(self, key: str) -> Beam | None:
+        """The finished beam of ``key``, or None (a damaged or foreign entry is deleted)."""
+        p = self.path(key)
+        if not p.exists():
+            return None
+        try:
+            beam = Beam.load(p)
+        except BeamFormatError:
+            beam = None
+        if beam is None or beam.meta.get("cache_key") != key:
+            p.unlink(missing_ok=True)
+            return None
+        return beam
+
+    def put(self, key: str, beam: Beam) -> Path:
+        """Store a finished beam (its meta must carry ``cache_key``) and drop its partials."""
+        if beam.meta.get("cache_key") != key:
+            beam = beam.with_meta(cache_key=key)
+        p = beam.save(self.path(key))
+        shutil.rmtree(self.root / "partial" / key, ignore_errors=True)
+        return p
+
+    def partial(self, key: str) -> dict[float, tuple[np.ndarray, float, dict[str, float]]]:
+        """Frequencies already solved for ``key``: {freq: (gain, seconds, extras)}."""
+        out: dict[float, tuple[np.ndarray, float, dict[str, float]]] = {}
+        d = self.root / "partial" / key
+        if not d.is_dir():
+            return out
+        for f in d.glob("*.npz"):
+            if f.name.endswith(TMP_SUFFIX):
+                f.unlink(missing_ok=True)  # a write interrupted by a kill: never complete
+                continue
+            try:
+                with np.load(f, allow_pickle=False) as z:
+                    extras = {k: float(z[k]) for k in z.files if k not in ("freq", "gain", "seconds")}
+                    out[float(z["freq"])] = (np.array(z["gain"]), float(z["seconds"]), extras)
+            except Exception:  # noqa: BLE001 - any damage: recompute that frequency
+                f.unlink(missing_ok=True)
+        return out
+
+    def put_partial(self, key: str, freq: float, gain: np.ndarray, seconds: float, **extras: float) -> None:
+        """Store one solved frequency (atomically)."""
+        with atomic_path(self.root / "partial" / key / f"{freq:.6f}.npz", suffix=TMP_SUFFIX) as tmp:
+            np.savez(tmp, freq=freq, gain=gain, seconds=seconds, **extras)

@@ -1,0 +1,133 @@
+"""The NEC-2 engine itself: which one is installed, whether it computes the right
+currents (the golden test), and running a model at one frequency.
+
+``pynec-accel`` 1.7.6 (module ``PyNEC``) is the engine. ``PyNEC``/``necpp`` 2.3.4 give
+wrong currents for wires a few cm above Sommerfeld soil (shared/nec/NOTES.md);
+pynec-accel matches Fortran NEC-2 there but is wrong *with GX symmetry*, so GX is never
+used and a request for it is refused. A golden test (half-wave dipole 5 cm over MRO soil,
+Fortran NEC-2: -3.22 dBi at zenith) runs before the first soil solve in a process and a
+wrong engine is refused. NEC always runs in spawned worker processes: PyNEC and healpy
+each bundle a libgomp, and loading both in one process fails ("cannot allocate memory in
+static TLS block").
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from groundplane.errors import EngineError, SolveError
+
+from ..base import process_pool, upper_mean_gain
+from .mesh import NecModel
+
+C_MHZ_M = 299.792458
+VERIFIED = ("pynec-accel", "1.7.6")
+GOLDEN_DBI = -3.22  # Fortran NEC-2, dipole 5 cm over eps_r 3.5, sigma 0.02 S/m (NOTES.md)
+_GOLDEN_OK: dict[str, float] = {}
+
+
+def engine_info() -> dict[str, str]:
+    """Which distribution provides the PyNEC module, and its version."""
+    from importlib import metadata
+
+    for dist in ("pynec-accel", "PyNEC", "pynec"):
+        try:
+            return {"engine": dist.lower(), "version": metadata.version(dist)}
+        except metadata.PackageNotFoundError:
+            continue
+    raise EngineError("no NEC-2 engine: install pynec-accel==1.7.6 (pip install -e . does)")
+
+
+def golden_dipole_zenith_gain(height: float = 0.05) -> float:
+    """Zenith gain (dBi) of the NOTES.md golden case: half-wave dipole at 75 MHz, radius
+    1 cm, 11 segments, ``height`` m over eps_r 3.5, sigma 0.02 S/m (Fortran: -3.22 dBi at 5 cm)."""
+    from PyNEC import nec_context
+
+    c = nec_context()
+    g = c.get_geometry()
+    half = 0.25 * C_MHZ_M / 75.0
+    g.wire(1, 11, -half, 0.0, height, half, 0.0, height, 0.01, 1.0, 1.0)
+    c.geometry_complete(1)
+    c.gn_card(2, 0, 3.5, 0.02, 0, 0, 0, 0)
+    c.fr_card(0, 1, 75.0, 0)
+    c.ex_card(0, 1, 6, 0, 1.0, 0, 0, 0, 0, 0)
+    c.rp_card(0, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0)
+    return float(np.asarray(c.get_radiation_pattern(0).get_gain())[0, 0])
+
+
+def engine_call(fn, *args):
+    """Run ``fn(*args)`` in a fresh spawned engine process (never beside healpy)."""
+    with process_pool(1) as pool:
+        return pool.submit(fn, *args).result()
+
+
+def check_engine(ground: str, use_gx: bool = False, allow_unverified: bool = False,
+                 in_process: bool = False) -> dict[str, str]:
+    """Refuse an engine/option combination known to be wrong; run the golden test once
+    (in an engine process, or here with ``in_process`` where NEC runs in this process)."""
+    info = engine_info()
+    if use_gx and (info["engine"], info["version"]) == VERIFIED:
+        raise EngineError("pynec-accel 1.7.6 is wrong with GX symmetry (5.62 vs 3.85 dBi in NOTES.md); not used")
+    if ground == "soil":
+        if (info["engine"], info["version"]) != VERIFIED and not allow_unverified:
+            raise EngineError(
+                f"{info['engine']} {info['version']} is not verified for wires near Sommerfeld soil "
+                "(PyNEC/necpp 2.3.4 are known wrong there); install pynec-accel==1.7.6"
+            )
+        key = f"{info['engine']}-{info['version']}"
+        if key not in _GOLDEN_OK:
+            got = golden_dipole_zenith_gain(0.05) if in_process else engine_call(golden_dipole_zenith_gain, 0.05)
+            if abs(got - GOLDEN_DBI) > 0.05:
+                raise EngineError(
+                    f"{key} failed the golden test: dipole 5 cm over soil gives {got:.2f} dBi at zenith, "
+                    f"Fortran NEC-2 gives {GOLDEN_DBI} dBi"
+                )
+            _GOLDEN_OK[key] = got
+    return info
+
+
+def context(model: NecModel, freq_mhz: float):
+    """A PyNEC context with the model's geometry, ground, frequency and excitation set."""
+    from PyNEC import nec_context
+
+    c = nec_context()
+    g = c.get_geometry()
+    for w in model.wires:
+        g.wire(w.tag, w.n_seg, *w.p1, *w.p2, w.radius, 1.0, 1.0)
+    c.geometry_complete(1)
+    if model.ground == "soil":
+        c.gn_card(2, 0, model.eps_r, model.sigma, 0, 0, 0, 0)
+    else:
+        c.gn_card(1, 0, 0, 0, 0, 0, 0, 0)
+    c.fr_card(0, 1, float(freq_mhz), 0)
+    c.ex_card(0, model.feed_tag, 1, 0, 1.0, 0, 0, 0, 0, 0)
+    return c
+
+
+def radiation_pattern(model: NecModel, freq_mhz: float, n_phi: int) -> np.ndarray:
+    """Linear power gain [theta 0..90, phi 0..n_phi-1] (1-degree steps) at one frequency."""
+    c = context(model, freq_mhz)
+    c.rp_card(0, 91, n_phi, 0, 0, 0, 0, 0.0, 0.0, 1.0, 1.0, 0, 0)
+    db = np.asarray(c.get_radiation_pattern(0).get_gain(), dtype=float)
+    if db.shape != (91, n_phi) or not np.all(np.isfinite(db)):
+        raise SolveError(f"NEC returned a pattern of shape {db.shape} with non-finite values at {freq_mhz} MHz")
+    g = 10.0 ** (db / 10.0)
+    g[db <= -990] = 0.0  # NEC's "no field" marker (theta = 90 over ground)
+    return g
+
+
+def solve_frequency(payload: tuple, freq: float) -> tuple[np.ndarray, dict[str, float]]:
+    """Worker job: the calibrated pattern at one frequency and its calibration factor.
+
+    ``payload`` is ``(model, ref_model, n_phi)``: ``ref_model`` is the blade over PEC for
+    the gain calibration, ``model`` itself when the design *is* the blade over PEC (solved
+    once), or None for no calibration."""
+    model, ref_model, n_phi = payload
+    g = radiation_pattern(model, freq, n_phi)
+    kappa = 1.0
+    if ref_model is not None:
+        gp = g if ref_model is model else radiation_pattern(ref_model, freq, n_phi)
+        kappa = upper_mean_gain(gp) / 2.0
+        if not (0.3 < kappa < 3.0):
+            raise SolveError(f"gain calibration factor {kappa:.3f} at {freq} MHz is implausible")
+        g = g / kappa
+    return g, {"gain_calibration_kappa": kappa}

@@ -1,0 +1,341 @@
+"""The NEC-2 model of a design as wires: plate wire grid, blade panels, feed, and the
+NEC-2 input deck. Pure geometry (numpy, shapely): no NEC engine is needed here.
+
+* Blade: each panel a rectangular wire grid (``blade_cells`` cells, 2 mm wires), fed by
+  one segment of the same radius across the 4.4 cm gap. No balun, top plate or shield.
+* Ground plane: a square grid of wires (spacing ``spacing``, lines at odd multiples of
+  spacing/2 so the mesh is mirror-symmetric about both axes) clipped to the outline,
+  plus wires along the outline itself (teeth included). All are noded with shapely so
+  every crossing is a wire end; nodes closer than ``merge_fraction * spacing`` are merged
+  to avoid ultra-short segments; grid lines within that distance of the outline's
+  bounding box are dropped (they would only graze its extreme vertices), and a merged
+  mesh in which wires overlap or touch away from their ends is re-noded. Every mesh is
+  checked before NEC sees it (:func:`check_wire_grid`). The plate sits ``plate_height``
+  above the soil: NEC-2 cannot put wires on the interface; wires must stay 3 radii up.
+* An optional finer grid under the antenna (``refine_centre``) targets where the near
+  field is strongest; it is off by default.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any, Sequence
+
+import numpy as np
+
+from groundplane.antenna import BladeDipole
+from groundplane.design import Design, InfinitePEC, Soil
+from groundplane.errors import SettingsError, SolveError
+from groundplane.options import option
+from groundplane.shapes import GroundPlane
+
+
+@dataclass(frozen=True)
+class NecSettings:
+    """How a design is discretised for NEC-2 (lengths in metres)."""
+
+    spacing: float = option(0.5, "plate wire-grid spacing (m)", flag="--mesh", metavar="SPACING")
+    plate_wire_radius: float = option(0.01, "plate wire radius (m)", flag="--wire-radius")
+    plate_height: float = option(0.05, "plate height above the soil (m)")
+    blade_cells: tuple[int, int] = option((12, 10), "blade panel grid cells along and across the axis",
+                                          metavar=("NX", "NY"))
+    blade_wire_radius: float = option(0.002, "blade wire radius (m)")
+    merge_fraction: float = 0.3
+    gain_calibration: str = option("pec", "absolute gain: 'pec' divides by the blade-over-PEC mean gain / 2 "
+                                   "(see solvers/engines/nec/solver.py), 'none' uses NEC's input power",
+                                   choices=("pec", "none"))
+    # Optional finer grid under the antenna, where the near field is strongest and a coarse
+    # grid leaks most power into the soil: spacing / FACTOR inside |x|, |y| <= HALF_WIDTH
+    # (snapped out to a coarse grid line). (0, 1) = uniform grid.
+    refine_centre: tuple[float, int] = option((0.0, 1), "a grid FACTOR times finer inside |x|,|y| <= HALF_WIDTH m",
+                                              metavar=("HALF_WIDTH", "FACTOR"))
+
+    def __post_init__(self) -> None:
+        if not (self.spacing > 0 and math.isfinite(self.spacing)):
+            raise SettingsError(f"mesh spacing must be a positive number of metres, got {self.spacing}")
+        if not (0 < self.plate_wire_radius < self.spacing / 2):
+            raise SettingsError(f"plate wire radius {self.plate_wire_radius} m must be in (0, spacing/2)")
+        if self.plate_height < 3 * self.plate_wire_radius:
+            raise SettingsError(
+                f"plate height {self.plate_height} m must be at least 3 wire radii ({3 * self.plate_wire_radius} m) "
+                "above the soil"
+            )
+        nx, ny = self.blade_cells
+        if nx < 2 or ny < 2 or ny % 2:
+            raise SettingsError(f"blade_cells {self.blade_cells}: need >= 2 cells, an even number across (feed at y = 0)")
+        if not (0 < self.blade_wire_radius < 0.01):
+            raise SettingsError(f"blade wire radius {self.blade_wire_radius} m must be in (0, 0.01)")
+        if self.gain_calibration not in ("pec", "none"):
+            raise SettingsError("gain_calibration must be 'pec' or 'none'")
+        half, factor = self.refine_centre
+        if not (isinstance(factor, int) and factor >= 1):
+            raise SettingsError(f"refine_centre: FACTOR must be a whole number >= 1, got {factor!r}")
+        if not (half >= 0 and math.isfinite(half)):
+            raise SettingsError(f"refine_centre: HALF_WIDTH must be >= 0 m, got {half}")
+        if self.refined and not (self.plate_wire_radius < self.spacing / factor / 2):
+            raise SettingsError(f"plate wire radius {self.plate_wire_radius} m must be under half the refined "
+                                f"spacing {self.spacing / factor:g} m")
+
+    @property
+    def refine_half_width(self) -> float:
+        return float(self.refine_centre[0])
+
+    @property
+    def refine_factor(self) -> int:
+        return int(self.refine_centre[1])
+
+    @property
+    def refined(self) -> bool:
+        return self.refine_factor > 1 and self.refine_half_width > 0
+
+    def as_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["blade_cells"] = list(self.blade_cells)
+        d.pop("refine_centre")
+        if self.refined:  # a uniform grid keeps the cache keys it had before refinement existed
+            d["refine_half_width"], d["refine_factor"] = self.refine_half_width, self.refine_factor
+        return d
+
+
+# -------------------------------------------------------------------------- model
+@dataclass
+class Wire:
+    tag: int
+    n_seg: int
+    p1: tuple[float, float, float]
+    p2: tuple[float, float, float]
+    radius: float
+
+
+@dataclass
+class NecModel:
+    """Wires plus ground: what both the engine and a .nec deck are built from."""
+
+    wires: list[Wire] = field(default_factory=list)
+    feed_tag: int = 0
+    ground: str = "soil"  # "soil" | "pec"
+    eps_r: float = 3.5
+    sigma: float = 0.02
+
+    @property
+    def n_segments(self) -> int:
+        return sum(w.n_seg for w in self.wires)
+
+    def add(self, p1: Sequence[float], p2: Sequence[float], radius: float, n_seg: int = 1) -> int:
+        tag = len(self.wires) + 1
+        self.wires.append(Wire(tag, n_seg, tuple(map(float, p1)), tuple(map(float, p2)), radius))
+        return tag
+
+    def to_deck(self, freqs_mhz: Sequence[float], comment: str = "") -> str:
+        """The model as a NEC-2 input deck (GW/GE/GN/FR/EX/RP/EN), for other NEC tools."""
+        lines = [f"CM groundplane NEC model: {comment}", "CE"]
+        for w in self.wires:
+            lines.append(
+                f"GW {w.tag} {w.n_seg} " + " ".join(f"{v:.6f}" for v in (*w.p1, *w.p2)) + f" {w.radius:.6f}"
+            )
+        lines.append("GE 1")
+        lines.append(f"GN 2 0 0 0 {self.eps_r:g} {self.sigma:g}" if self.ground == "soil" else "GN 1")
+        f = np.asarray(freqs_mhz, dtype=float)
+        step = float(f[1] - f[0]) if f.size > 1 else 0.0
+        lines.append(f"FR 0 {f.size} 0 0 {f[0]:g} {step:g}")
+        lines.append(f"EX 0 {self.feed_tag} 1 0 1 0")
+        lines.append("RP 0 91 360 1000 0 0 1 1")
+        lines.append("EN")
+        return "\n".join(lines) + "\n"
+
+
+def add_blade(model: NecModel, antenna: BladeDipole, z: float, settings: NecSettings) -> int:
+    """The two panels as wire grids at height ``z`` and the feed segment; returns the feed tag."""
+    nx, ny = settings.blade_cells
+    r = settings.blade_wire_radius
+    ys = np.linspace(-antenna.panel_width / 2, antenna.panel_width / 2, ny + 1)
+    for s in (1.0, -1.0):
+        xs = s * (antenna.gap / 2 + np.linspace(0.0, antenna.panel_length, nx + 1))
+        for x in xs:
+            for j in range(ny):
+                model.add((x, ys[j], z), (x, ys[j + 1], z), r)
+        for y in ys:
+            for i in range(nx):
+                model.add((xs[i], y, z), (xs[i + 1], y, z), r)
+    feed = model.add((-antenna.gap / 2, 0.0, z), (antenna.gap / 2, 0.0, z), r)
+    model.feed_tag = feed
+    return feed
+
+
+# ------------------------------------------------------------------- plate mesh
+def _grid_lines(bounds: tuple[float, float, float, float], spacing: float, margin: float,
+                refine_half_width: float, refine_factor: int) -> list:
+    """Whole grid lines over the bounding box (and the finer centre grid, if any)."""
+    from shapely.geometry import LineString
+
+    x0, y0, x1, y1 = bounds
+
+    def offsets(lo: float, hi: float) -> np.ndarray:
+        k = np.arange(math.floor(lo / spacing - 0.5), math.ceil(hi / spacing + 0.5) + 1)
+        v = (k + 0.5) * spacing
+        return v[(v > lo + margin) & (v < hi - margin)]
+
+    lines = [LineString([(x, y0 - 1), (x, y1 + 1)]) for x in offsets(x0, x1)]
+    lines += [LineString([(x0 - 1, y), (x1 + 1, y)]) for y in offsets(y0, y1)]
+    if refine_factor > 1 and refine_half_width > 0:
+        # snap the region out to the next coarse line; fine lines subdivide the coarse cells
+        h = (math.ceil(refine_half_width / spacing - 0.5) + 0.5) * spacing
+        k = np.arange(-math.ceil(h / spacing) - 1, math.ceil(h / spacing) + 1)
+        fine = ((k + 0.5) * spacing)[:, None] + np.arange(1, refine_factor)[None, :] * spacing / refine_factor
+        fine = fine.ravel()[np.abs(fine.ravel()) < h - 1e-9]
+        lines += [LineString([(v, -h), (v, h)]) for v in fine]
+        lines += [LineString([(-h, v), (h, v)]) for v in fine]
+        lines += [LineString([(-h, v), (h, v)]) for v in (-h, h)] + [LineString([(v, -h), (v, h)]) for v in (-h, h)]
+    return lines
+
+
+def _noded_edges_inside(lines: list, poly, spacing: float) -> np.ndarray:
+    """Node whole grid lines against the outline (true crossings node robustly, clipped
+    ends would not), then keep the pieces that lie inside or on the outline: [n, 2, 2]."""
+    from shapely.geometry import MultiLineString, Point
+    from shapely.ops import unary_union
+
+    net = unary_union(lines + [poly.exterior])
+    geoms = net.geoms if isinstance(net, MultiLineString) else [net]
+    inside = poly.buffer(1e-7 * spacing)
+    edges = []
+    for g in geoms:
+        c = np.asarray(g.coords)
+        for a, b in zip(c[:-1], c[1:]):
+            if inside.contains(Point((a + b) / 2)):
+                edges.append((a, b))
+    return np.asarray(edges, dtype=float)
+
+
+def _merge_close_nodes(e: np.ndarray, poly, tol: float) -> np.ndarray:
+    """Merge nodes closer than ``tol`` (union-find over a KD-tree's pairs); outline nodes
+    survive (corners and tooth tips above all), so edges keep following the outline."""
+    from scipy.spatial import cKDTree
+    from shapely.geometry import Point
+
+    nodes, inv = np.unique(np.round(e.reshape(-1, 2), 9), axis=0, return_inverse=True)
+    parent = np.arange(len(nodes))
+
+    def find(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    pairs = np.array(sorted(cKDTree(nodes).query_pairs(tol)), dtype=int).reshape(-1, 2)
+    on_outline = np.array([poly.exterior.distance(Point(p)) < 1e-9 for p in nodes])
+    order = np.argsort(np.hypot(*(nodes[pairs[:, 0]] - nodes[pairs[:, 1]]).T)) if len(pairs) else []
+    for i, j in pairs[order]:
+        ri, rj = find(int(i)), find(int(j))
+        # merge only if the two surviving nodes are themselves close: no chains across the mesh
+        if ri != rj and np.hypot(*(nodes[ri] - nodes[rj])) < tol:
+            keep, drop = (ri, rj) if on_outline[ri] or not on_outline[rj] else (rj, ri)
+            if on_outline[ri] and on_outline[rj] and _is_corner(poly, nodes[rj]):
+                keep, drop = rj, ri
+            parent[drop] = keep
+    roots = np.array([find(i) for i in range(len(nodes))])
+    idx = roots[inv.ravel()].reshape(-1, 2)
+    idx = idx[idx[:, 0] != idx[:, 1]]
+    idx = np.unique(np.sort(idx, axis=1), axis=0)
+    return nodes[idx]
+
+
+def _renoded(merged: np.ndarray) -> np.ndarray:
+    """Moving nodes can lay one wire along another or through another's end (narrow teeth
+    at a coarse mesh); re-noding the merged set with GEOS splits those into shared-end pieces."""
+    from shapely.geometry import LineString, MultiLineString
+    from shapely.ops import unary_union
+
+    if not len(_wire_grid_defects(merged)[0]):
+        return merged
+    renoded = unary_union(list(map(LineString, merged)))
+    geoms = renoded.geoms if isinstance(renoded, MultiLineString) else [renoded]
+    out = [(a, b) for g in geoms for a, b in zip(np.asarray(g.coords)[:-1], np.asarray(g.coords)[1:])]
+    e = np.round(np.asarray(out, dtype=float), 9)
+    return e[np.hypot(*(e[:, 1] - e[:, 0]).T) > 1e-9]
+
+
+def plate_edges(plane: GroundPlane, spacing: float, merge_fraction: float = 0.3,
+                refine_half_width: float = 0.0, refine_factor: int = 1) -> np.ndarray:
+    """Wire-grid edges [n, 2, 2] (metres) meshing the outline: grid lines clipped to it plus
+    the outline, noded so every crossing is an edge end, close nodes merged; optionally a
+    grid ``refine_factor`` times finer inside the central square of half-width
+    ``refine_half_width`` (its border is a coarse grid line, so fine lines end on a wire)."""
+    poly = plane.outline()
+    # Grid lines closer to the bounding box than the merge tolerance only touch the outline at
+    # its extreme vertices (a tooth tip, a corner) and would leave a wire running through that
+    # vertex ("WIRE #5 INTERSECTS WIRE #6" on sawtooth-15-12 at 1 m, whose tips sit on a grid
+    # line); every crossing they make would be merged away anyway, so they are dropped.
+    lines = _grid_lines(poly.bounds, spacing, merge_fraction * spacing, refine_half_width, refine_factor)
+    edges = _noded_edges_inside(lines, poly, spacing)
+    refined = refine_factor > 1 and refine_half_width > 0
+    merged = _merge_close_nodes(edges, poly, merge_fraction * spacing / (refine_factor if refined else 1))
+    return _renoded(merged)
+
+
+def _wire_grid_defects(edges: np.ndarray, tol: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs (i, j) of wires that cross, overlap or touch away from a shared end."""
+    import shapely
+    from shapely.strtree import STRtree
+
+    edges = np.asarray(edges, dtype=float)
+    lines = shapely.linestrings(edges)
+    i, j = STRtree(lines).query(lines, predicate="intersects")
+    keep = i < j
+    i, j = i[keep], j[keep]
+    inter = shapely.intersection(lines[i], lines[j])
+    point = shapely.get_type_id(inter) == 0  # anything else (line, multipoint) is an overlap
+    p = shapely.get_coordinates(inter[point])  # one coordinate per single-point intersection
+
+    def at_end(ends: np.ndarray) -> np.ndarray:
+        return np.min(np.hypot(*(ends - p[:, None, :]).transpose(2, 0, 1)), axis=1) < tol
+
+    ok = np.zeros(len(i), dtype=bool)
+    ok[point] = at_end(edges[i[point]]) & at_end(edges[j[point]])
+    return i[~ok], j[~ok]
+
+
+def check_wire_grid(edges: np.ndarray, label: str = "plate") -> None:
+    """Raise SolveError unless wires meet only at shared ends: NEC refuses a wire crossing or
+    touching another's interior, and says only "WIRE #5 INTERSECTS WIRE #6"; this names where."""
+    i, j = _wire_grid_defects(edges)
+    if len(i):
+        a, b = edges[i[0]], edges[j[0]]
+        raise SolveError(
+            f"{label}: {len(i)} pair(s) of plate wires meet away from their ends, e.g. "
+            f"({a[0][0]:.3f},{a[0][1]:.3f})-({a[1][0]:.3f},{a[1][1]:.3f}) and "
+            f"({b[0][0]:.3f},{b[0][1]:.3f})-({b[1][0]:.3f},{b[1][1]:.3f}) m; NEC would refuse this mesh"
+        )
+
+
+def _is_corner(poly, p: np.ndarray) -> bool:
+    """Is ``p`` a vertex of the outline (a tooth tip or corner must not move)?"""
+    v = np.asarray(poly.exterior.coords)
+    return bool(np.min(np.hypot(*(v - p).T)) < 1e-9)
+
+
+def build_model(design: Design, settings: NecSettings) -> NecModel:
+    """The full NEC model of a design."""
+    if isinstance(design.ground, InfinitePEC):
+        if design.plane is not None:
+            raise SolveError(f"{design.label()}: a plate on infinite PEC ground does nothing; drop the shape")
+        return pec_reference_model(design, settings)
+    assert isinstance(design.ground, Soil)
+    model = NecModel(ground="soil", eps_r=design.ground.eps_r, sigma=design.ground.sigma)
+    zp = settings.plate_height
+    edges = plate_edges(design.plane, settings.spacing, settings.merge_fraction, settings.refine_half_width,
+                        settings.refine_factor)
+    check_wire_grid(edges, f"{design.label()} at a {settings.spacing:g} m mesh")
+    for (ax, ay), (bx, by) in edges:
+        length = math.hypot(bx - ax, by - ay)
+        model.add((ax, ay, zp), (bx, by, zp), settings.plate_wire_radius,
+                  max(1, math.ceil(length / settings.spacing - 1e-9)))
+    add_blade(model, design.antenna, zp + design.antenna.height, settings)
+    return model
+
+
+def pec_reference_model(design: Design, settings: NecSettings) -> NecModel:
+    """The design's blade alone over infinite PEC (the reference case and the gain calibration)."""
+    model = NecModel(ground="pec")
+    add_blade(model, design.antenna, design.antenna.height, settings)
+    return model

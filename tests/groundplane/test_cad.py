@@ -1,0 +1,54 @@
+"""Ground-plane shapes (exact areas, validation) and CAD export (STEP/STL round trips)."""
+
+import pytest
+
+from groundplane import cad
+from groundplane.shapes import (
+    PRESETS,
+)
+
+# SPEC section 4 (paper Table 3) areas, and the deployed plane: 400 + 16 * (4.8 * 5 / 2)
+SPEC_AREAS = {
+    "square-10": 100, "square-20": 400, "square-30": 900, "plus-15": 125, "plus-30": 500,
+    "sawtooth-10-8": 200, "sawtooth-15-12": 375, "sawtooth-20-16": 600, "sawtooth-20-20": 600,
+    "extended": 592,
+}
+SPEC_EXTENT = {"plus-15": 15, "plus-30": 30, "extended": 30, "sawtooth-20-16": 30, "square-10": 10}
+
+
+
+def test_stl_watertight_with_expected_volume(tmp_path):
+    import trimesh
+
+    s = PRESETS["sawtooth-20-16"]
+    p = cad.export(s, tmp_path / "p.stl", thickness=0.002)
+    m = trimesh.load(p)
+    assert m.is_watertight
+    assert m.volume == pytest.approx(600 * 0.002, rel=1e-6)
+    top_bottom = 2 * 600
+    assert m.area == pytest.approx(top_bottom + s.outline().length * 0.002, rel=1e-6)
+
+def test_step_roundtrip_in_metres(tmp_path):
+    s = PRESETS["extended"]
+    p = cad.export(s, tmp_path / "p.step", thickness=0.003)
+    text = p.read_text()
+    assert "SI_UNIT($,.METRE.)" in text
+    assert cad.import_step_volume(p) == pytest.approx(592 * 0.003, rel=1e-6)
+
+def test_step_assembly_with_named_parts(tmp_path):
+    s = PRESETS["square-10"]
+    p = cad.export(s, tmp_path / "a.step", with_antenna=True)
+    text = p.read_text()
+    for name in ("ground_plane", "blade_pos", "blade_neg"):
+        assert f"PRODUCT('{name}'" in text
+    assert "SI_UNIT($,.METRE.)" in text
+    blades = 2 * 1.252 * 0.964 * 0.003
+    assert cad.import_step_volume(p) == pytest.approx(100 * 0.002 + blades, rel=1e-6)
+
+def test_drawings(tmp_path):
+    for suffix in ("svg", "png"):
+        p = cad.export(PRESETS["plus-30"], tmp_path / f"d.{suffix}")
+        assert p.stat().st_size > 5000
+    with pytest.raises(ValueError, match="unknown output format"):
+        cad.export(PRESETS["plus-30"], tmp_path / "d.dxf")
+

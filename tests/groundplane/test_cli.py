@@ -1,0 +1,57 @@
+"""The Figure of Merit: fast path vs an independent integration, and physics sanity checks."""
+import json
+
+import pytest
+
+from groundplane.cli import main
+from groundplane.fom import (
+    FomSettings,
+)
+from groundplane.shapes import PRESETS
+from tests.conftest import EXAMPLE_BEAM
+
+HIGH = FomSettings(fit_band_mhz=(90.0, 190.0))
+
+
+
+def test_cli_fom_json_and_plot(tmp_path, capsys):
+    png = tmp_path / "fom.png"
+    rc = main(["fom", str(EXAMPLE_BEAM), "--fit-band", "90", "190", "--json", "--plot", str(png)])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    for key in ("lst_averaged_fom_mk", "fom_mk", "lst_hours", "freqs_mhz", "settings"):
+        assert key in out
+    assert len(out["fom_mk"]) == 360
+    assert out["settings"]["fit_band_mhz"] == [90.0, 190.0]
+    assert png.stat().st_size > 10_000
+
+def test_cli_fom_reports_bad_fit_band(capsys):
+    rc = main(["fom", str(EXAMPLE_BEAM)])
+    assert rc == 2
+    assert "the fit band is 55-97 MHz: 55-80 MHz missing" in capsys.readouterr().err
+
+
+def test_cli_shapes_json(capsys):
+    assert main(["shapes", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    by = {r["name"]: r for r in rows}
+    assert set(by) == set(PRESETS)
+    assert by["sawtooth-20-16"]["metal_area_m2"] == pytest.approx(600)
+    assert by["plus-30"]["extent_m"] == pytest.approx(30)
+    assert all({"name", "shape", "metal_area_m2", "extent_m"} <= set(r) for r in rows)
+
+def test_cli_export_and_errors(tmp_path, capsys):
+    out = tmp_path / "s.stl"
+    assert main(["export", "sawtooth", "--side", "20", "--teeth-per-side", "4", "--tooth-base", "5",
+                 "--tooth-height", "5", "-o", str(out)]) == 0
+    assert out.exists()
+    assert main(["export", "--preset", "plus-15", "-o", str(tmp_path / "p.png")]) == 0
+    capsys.readouterr()
+    assert main(["export", "sawtooth", "--side", "10", "--teeth-per-side", "3", "--tooth-base", "5",
+                 "--tooth-height", "5", "-o", str(out)]) == 2
+    assert "use teeth_per_side <= 2" in capsys.readouterr().err
+    assert main(["export", "square", "-o", str(out)]) == 2
+    assert "square needs --side" in capsys.readouterr().err
+    assert main(["export", "square", "--side", "3", "--arm", "2", "-o", str(out)]) == 2
+    assert "does not take --arm" in capsys.readouterr().err
+

@@ -1,0 +1,146 @@
+"""The Figure of Merit: fast path vs an independent integration, and physics sanity checks."""
+
+import numpy as np
+import pytest
+
+from groundplane.beam import Beam
+from groundplane.fom import (
+    Absorption,
+    FomSettings,
+    antenna_temperature,
+    beam_correction_factor,
+    figure_of_merit,
+    fom_from_spectra,
+    gain_derivative,
+    gain_polynomial_residuals,
+    linlog_design,
+    sky_for,
+)
+from groundplane.reference import reference_antenna_temperature
+from groundplane.sky import lst_grid
+from tests.conftest import EXAMPLE_BEAM
+
+HIGH = FomSettings(fit_band_mhz=(90.0, 190.0))
+
+
+
+@pytest.fixture(scope="module")
+def highband():
+    return Beam.load(EXAMPLE_BEAM)
+
+def test_fast_path_matches_brute_force(highband):
+    fast = figure_of_merit(highband, HIGH)
+    idx = np.arange(0, 360, 30)
+    ref = reference_antenna_temperature(highband, HIGH, lst_grid(360)[idx])
+    assert np.max(np.abs(ref / fast.t_ant[:, idx] - 1)) < 0.005
+    ref_fom = fom_from_spectra(highband.freqs_mhz, ref, HIGH)
+    assert abs(ref_fom.fom.mean() / fast.fom[idx].mean() - 1) < 0.005
+    assert np.max(np.abs(ref_fom.fom / fast.fom[idx] - 1)) < 0.02
+
+def test_fast_path_matches_brute_force_normalised_with_cmb(highband):
+    s = FomSettings(fit_band_mhz=(90.0, 190.0), normalise=True, subtract_cmb=True)
+    idx = np.array([0, 90, 270])
+    fast = antenna_temperature(highband, s)[:, idx]
+    ref = reference_antenna_temperature(highband, s, lst_grid(360)[idx])
+    assert np.max(np.abs(ref / fast - 1)) < 0.005
+
+def test_uniform_beam_sees_mean_visible_sky():
+    import astropy.units as u
+    import healpy as hp
+    from astropy.coordinates import AltAz, SkyCoord
+    from groundplane.sky import location
+
+    from groundplane.sky import MRO, load_sky_map, lst_times
+
+    theta, phi = np.arange(91.0), np.arange(360.0)
+    freqs = np.array([50.0, 75.0, 100.0])
+    beam = Beam(freqs, theta, phi, np.ones((3, 91, 360)))
+    s = FomSettings()
+    t = antenna_temperature(beam, s)
+    tn = antenna_temperature(beam, FomSettings(normalise=True))
+    sky = load_sky_map()
+    l, b = hp.pix2ang(hp.npix2nside(sky.size), np.arange(sky.size), lonlat=True)
+    for k in (0, 135, 270):
+        tt = lst_times(np.array([float(k)]), MRO)[0]
+        alt = SkyCoord(l=l * u.deg, b=b * u.deg, frame="galactic").transform_to(
+            AltAz(obstime=tt, location=location(MRO))).alt.deg
+        mean_visible = sky[alt > 0].mean() * (75.0 / 408.0) ** -2.55
+        assert tn[1, k] == pytest.approx(mean_visible, rel=0.003)
+        assert t[1, k] == pytest.approx(mean_visible / 2, rel=0.003)  # G = 1 fills half of 4 pi
+
+def test_achromatic_beam_has_zero_fom(highband):
+    g = np.repeat(highband.gain[10:11], highband.freqs_mhz.size, axis=0)
+    flat = Beam(highband.freqs_mhz, highband.theta_deg, highband.phi_deg, g)
+    r = figure_of_merit(flat, HIGH)
+    assert r.lst_averaged_fom_mk < 1e-3
+    # the real, chromatic beam is far above that
+    assert figure_of_merit(highband, HIGH).lst_averaged_fom_mk > 10
+
+def test_linlog_absorbs_power_law_and_catches_a_bump():
+    f = np.arange(55.0, 98.0)
+    s = FomSettings()
+    pl = 3000 * (f / 75) ** -2.55 * (1 + 0.01 * np.log(f / 75))
+    assert fom_from_spectra(f, pl[:, None], s).fom[0] < 1e-9
+    bump = pl + 0.1 * np.exp(-0.5 * ((f - 78) / 3) ** 2)
+    assert fom_from_spectra(f, bump[:, None], s).fom[0] > 0.01
+    a = linlog_design(f, 75.0, 2.55, 5)
+    assert a.shape == (f.size, 5)
+
+def test_absorption_feature_shape_and_injection(highband):
+    t21 = Absorption().temperature(np.array([78.0, 50.0]))
+    assert t21[0] == pytest.approx(-0.5)
+    assert abs(t21[1]) < 0.01
+    f = np.arange(40.0, 101.0)
+    s0 = FomSettings()
+    g = np.ones((f.size, 91, 360))
+    beam = Beam(f, np.arange(91.0), np.arange(360.0), g)
+    base = figure_of_merit(beam, s0).lst_averaged_fom_mk
+    inj = figure_of_merit(beam, FomSettings(absorption=Absorption())).lst_averaged_fom_mk
+    assert base < 1e-3 and inj > 20  # a 500 mK trough leaves tens of mK after a 5-term fit
+
+def test_beam_correction_with_same_model_removes_structure(highband):
+    plain = figure_of_merit(highband, HIGH)
+    corrected = figure_of_merit(highband, HIGH, correction_beam=highband)
+    assert corrected.lst_averaged_fom_mk < 1e-3 * plain.lst_averaged_fom_mk
+    b = beam_correction_factor(highband, HIGH, nu_ref_mhz=140.0)
+    assert np.allclose(b[np.flatnonzero(highband.freqs_mhz == 140.0)[0]], 1.0)
+
+def test_secondary_metrics(highband):
+    res = gain_polynomial_residuals(highband, (90.0, 190.0))
+    assert set(res) == {"zenith", "E45", "H45"}
+    assert all(np.isfinite(v["peak_to_peak"]) for v in res.values())
+    fm, el, d = gain_derivative(highband, 0.0)
+    assert d.shape == (highband.freqs_mhz.size - 1, el.size)
+    assert el[0] == 0.0 and el[-1] == 180.0
+
+def test_fit_band_without_enough_frequencies_is_an_error(highband):
+    with pytest.raises(ValueError, match="fit band"):
+        figure_of_merit(highband, FomSettings())  # 55-97 MHz holds 4 of 80-200 MHz in 5 MHz steps
+
+def test_sky_cache_reused_from_disk(highband, tmp_path, monkeypatch):
+    from groundplane import sky
+
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path))
+    s = FomSettings(fit_band_mhz=(90.0, 190.0), n_lst=4)
+    hs = sky_for(highband, s)
+    files = list(tmp_path.glob("horizon_sky_*.npy"))
+    assert len(files) == 1
+    sky._MEMORY.clear()
+    again = sky_for(highband, s)
+    assert np.array_equal(hs.t408, again.t408)
+
+def test_frequency_smoothing_keeps_broadband_structure_and_removes_narrow_spikes():
+    f = np.arange(40.0, 101.0)
+    th, ph = np.arange(91.0), np.arange(0.0, 360.0, 10.0)
+    broad = (1 + 0.1 * np.cos(2 * np.pi * (f - 40) / 20.0))[:, None, None] * np.cos(np.radians(th))[None, :, None] ** 2
+    g = np.repeat(broad, ph.size, axis=2)
+    smooth = Beam(f, th, ph, g).frequency_smoothed(12)
+    assert np.abs(smooth.gain - g).max() < 2e-3 * g.max()  # a 20 MHz ripple survives
+    spiked = g * (1 + 0.01 * (f == 73.0))[:, None, None]
+    out = Beam(f, th, ph, spiked).frequency_smoothed(12)
+    i = int(np.argmax(f == 73.0))
+    assert np.abs(out.gain[i] - g[i]).max() < 0.3 * np.abs(spiked[i] - g[i]).max()  # the spike mostly goes
+    assert out.meta["frequency_smoothed_degree"] == 12
+    with pytest.raises(ValueError, match="smoothing degree"):
+        Beam(f, th, ph, g).frequency_smoothed(61)
+

@@ -1,0 +1,79 @@
+"""Ground-plane shapes (exact areas, validation) and CAD export (STEP/STL round trips)."""
+import math
+
+import pytest
+
+from groundplane.shapes import (
+    PRESETS,
+    Plus,
+    PolygonPlane,
+    RegularPolygon,
+    Sawtooth,
+    ShapeError,
+    Square,
+    Star,
+    from_dict,
+    to_dict,
+)
+
+# SPEC section 4 (paper Table 3) areas, and the deployed plane: 400 + 16 * (4.8 * 5 / 2)
+SPEC_AREAS = {
+    "square-10": 100, "square-20": 400, "square-30": 900, "plus-15": 125, "plus-30": 500,
+    "sawtooth-10-8": 200, "sawtooth-15-12": 375, "sawtooth-20-16": 600, "sawtooth-20-20": 600,
+    "extended": 592,
+}
+SPEC_EXTENT = {"plus-15": 15, "plus-30": 30, "extended": 30, "sawtooth-20-16": 30, "square-10": 10}
+
+
+
+@pytest.mark.parametrize("name", sorted(SPEC_AREAS))
+def test_preset_areas_exact(name):
+    s = PRESETS[name]
+    assert s.metal_area == pytest.approx(SPEC_AREAS[name], abs=1e-9)
+    assert s.outline().area == pytest.approx(SPEC_AREAS[name], abs=1e-9)
+    if name in SPEC_EXTENT:
+        assert s.extent == pytest.approx(SPEC_EXTENT[name])
+    assert s.mirror_symmetry == {"x": True, "y": True}
+    assert s.outline().contains(__import__("shapely.geometry").geometry.Point(0, 0))
+
+def test_teeth_counts_and_edges():
+    assert PRESETS["sawtooth-20-16"].n_teeth == 16
+    assert PRESETS["sawtooth-20-20"].n_teeth == 20
+    assert PRESETS["extended"].edge_count == 52  # 16 teeth x 2 + 5 gaps per side x 4
+    assert Square(3).edge_count == 4 and Plus(2).edge_count == 12
+
+def test_keys_are_stable_and_distinct():
+    assert Square(10.0).key() == Square(10).key() == PRESETS["square-10"].key()
+    assert len({s.key() for s in PRESETS.values()}) == len(PRESETS)
+    assert from_dict(to_dict(PRESETS["extended"])).key() == PRESETS["extended"].key()
+
+def test_new_shapes_areas():
+    p = RegularPolygon(8, 10.0)
+    assert p.metal_area == pytest.approx(p.outline().area) == pytest.approx(200 * math.sqrt(2))
+    st = Star(12, 15.0, 10.0)
+    assert st.metal_area == pytest.approx(st.outline().area)
+    assert st.edge_count == 24 and st.mirror_symmetry == {"x": True, "y": True}
+    assert RegularPolygon(5, 1.0).mirror_symmetry["x"] is True
+    assert RegularPolygon(5, 1.0).mirror_symmetry["y"] is False
+    poly = PolygonPlane([(-1, -1), (2, -1), (2, 1), (-1, 1)])
+    assert poly.metal_area == pytest.approx(6.0) and poly.mirror_symmetry["y"] is False
+
+@pytest.mark.parametrize("make,msg", [
+    (lambda: Square(0), "side must be a positive"),
+    (lambda: Square(float("inf")), "side must be a positive"),
+    (lambda: Plus(-2), "arm must be a positive"),
+    (lambda: Sawtooth(10, 3, 5, 5), r"3 teeth of base 5 m need 15 m but a side is 10 m; use teeth_per_side <= 2"),
+    (lambda: Sawtooth(10, 0, 5, 5), "whole number >= 1"),
+    (lambda: Sawtooth(10, 2.5, 1, 1), "whole number"),
+    (lambda: Sawtooth(10, 2, 5, float("nan")), "tooth_height must be a positive"),
+    (lambda: RegularPolygon(2, 1.0), "n_sides"),
+    (lambda: Star(6, 1.0, 1.5), "inner_radius"),
+    (lambda: PolygonPlane([(0, 0), (1, 1), (1, 0), (0, 1)]), "not a simple polygon"),
+    (lambda: PolygonPlane([(1, 1), (2, 1), (2, 2)]), "feed .* inside"),
+    (lambda: from_dict({"shape": "square", "side": 1, "arm": 2}), "unknown parameter"),
+    (lambda: from_dict({"shape": "hexagon"}), "unknown shape"),
+])
+def test_invalid_parameters_rejected(make, msg):
+    with pytest.raises(ShapeError, match=msg):
+        make()
+

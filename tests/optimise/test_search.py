@@ -1,0 +1,83 @@
+"""Sweeps (resume after kill -9, invalid members, beam files, Dask), the optimiser's
+constraint handling and NaN guard, and the report writer. Solves are a 3 m plate at a
+1 m mesh and 8 frequencies: seconds each."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from optimise.evaluate import EvalSettings
+from optimise.search import family, optimisable, optimise
+
+CHEAP = """
+[solver]
+mesh = 1.0
+freqs = "55:97:6"
+[fom]
+n_lst = 24
+"""
+
+
+
+def _fake_eval(fom_of):
+    calls = []
+
+    def ev(candidate, settings):
+        calls.append(candidate.plane)
+        v = fom_of(candidate.plane)
+        return {"status": "ok", "lst_averaged_fom_mk": v, "name": candidate.name}
+
+    return ev, calls
+
+def test_optimiser_respects_area_and_validity(tmp_path):
+    # a made-up smooth FoM that always prefers more metal and longer teeth: the budget must bind
+    ev, calls = _fake_eval(lambda p: 1000.0 / p.metal_area + 5.0 / p.tooth_height)
+    res = optimise("sawtooth", 300.0, EvalSettings(), tmp_path, budget=60, integer_values=(3, 4),
+                   evaluate_fn=ev, progress=False)
+    assert calls, "the objective was never evaluated"
+    for p in calls:  # only valid, in-budget designs ever reach the solver
+        assert p.metal_area <= 300.0 * (1 + 1e-9)
+        assert p.teeth_per_side * p.tooth_base <= p.side + 1e-9
+    assert res.best["area_m2"] > 0.9 * 300.0  # the optimum sits on the budget
+    lines = (tmp_path / "history.jsonl").read_text().splitlines()
+    assert len(lines) == len(res.history) and json.loads((tmp_path / "best.json").read_text())
+
+def test_optimiser_nan_guard_and_resume(tmp_path):
+    seen = []
+
+    def fom(p):  # the first design evaluated (the start point) breaks the solver: NaN
+        seen.append(p.side)
+        return float("nan") if p.side == seen[0] else 100.0 + (p.side - 12.0) ** 2
+    ev, calls = _fake_eval(fom)
+    res = optimise("square", 400.0, EvalSettings(), tmp_path, budget=25, evaluate_fn=ev, progress=False)
+    statuses = {r["status"] for r in res.history}
+    assert all(math.isfinite(r["objective"]) for r in res.history)
+    assert res.history[0]["status"] == "failed" and res.history[0]["objective"] >= 1e4  # finite penalty
+    assert "ok" in statuses
+    assert res.best["fom_mk"] == pytest.approx(100.0, abs=0.5)
+    n_first = len(calls)
+    # an interrupted run resumes from its history: the same command evaluates nothing again
+    ev2, calls2 = _fake_eval(fom)
+    res2 = optimise("square", 400.0, EvalSettings(), tmp_path, budget=25, evaluate_fn=ev2, progress=False)
+    assert calls2 == [] and res2.best == res.best and n_first > 0
+
+def test_optimiser_rejects_bad_requests(tmp_path):
+    with pytest.raises(ValueError, match="does not take the area constraint"):
+        optimise("square", 100.0, EvalSettings(), tmp_path, algorithm="LN_NELDERMEAD")
+    with pytest.raises(ValueError, match="unknown shape family"):
+        optimise("hexagon", 100.0, EvalSettings(), tmp_path)
+    with pytest.raises(ValueError, match="max-area"):
+        optimise("square", float("nan"), EvalSettings(), tmp_path)
+
+def test_every_family_start_is_valid_and_in_budget():
+    assert set(optimisable()) == {"square", "plus", "sawtooth", "polygon-n", "star"}
+    for name in optimisable():
+        fam = family(name)
+        for n in fam.integer_values or (None,):
+            x = np.clip(fam.start(600.0, n), fam.lower, fam.upper)
+            assert fam.area(x, n) <= 600.0
+            assert all(v <= 0 for v in fam.validity(x, n))
+            plane = fam.build(x, n)
+            assert plane.metal_area == pytest.approx(fam.area(x, n))
+

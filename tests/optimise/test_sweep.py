@@ -1,0 +1,126 @@
+"""Sweeps (resume after kill -9, invalid members, beam files, Dask), the optimiser's
+constraint handling and NaN guard, and the report writer. Solves are a 3 m plate at a
+1 m mesh and 8 frequencies: seconds each."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from groundplane.beam import Beam
+from optimise.sweep import ConfigError, ResultStore, load_config, run_sweep
+from tests.conftest import EXAMPLE_BEAM, ROOT
+
+CHEAP = """
+[solver]
+mesh = 1.0
+freqs = "55:97:6"
+[fom]
+n_lst = 24
+"""
+
+
+
+def write_cfg(tmp_path, body):
+    p = tmp_path / "sweep.toml"
+    p.write_text(CHEAP + body)
+    return p
+
+def test_config_expands_families_and_reports_invalid_members(tmp_path):
+    cfg = write_cfg(tmp_path, """
+[[candidate]]
+preset = "square-10"
+[[family]]
+shape = "sawtooth"
+side = [3, 4]
+teeth_per_side = [1, 3]
+tooth_base = 1.5
+tooth_height = 1
+""")
+    cands, invalid, settings = load_config(cfg)
+    assert [c.name for c in cands] == ["square-10", "sawtooth-3-1-1.5-1", "sawtooth-4-1-1.5-1"]
+    assert len(invalid) == 2 and "use teeth_per_side" in invalid[0]["error"]
+    assert settings.solver.spacing == 1.0 and len(settings.freqs_mhz) == 8
+
+@pytest.mark.parametrize("body,msg", [
+    ("[[candidate]]\nshape = 'hexagon'\n", "unknown shape"),
+    ("[[candidate]]\npreset = 'square-10'\n[[candidate]]\npreset = 'square-10'\n", "unique"),
+    ("[bogus]\n", "unknown table"),
+    ("", "no candidates"),
+    ("[[candidate]]\nshape = 'square'\nside = -1\n", r"#1: Square: side must be a positive"),
+    ("fit_bnad = [55, 97]\n", r"\[fom\]: unknown key\(s\) \['fit_bnad'\]"),  # lands in CHEAP's [fom]
+])
+def test_bad_config_names_the_entry(tmp_path, body, msg):
+    with pytest.raises(ConfigError, match=msg):
+        load_config(write_cfg(tmp_path, body))
+
+def test_sweep_resumes_after_kill_9(tmp_path):
+    cfg = write_cfg(tmp_path, "".join(f"[[candidate]]\nname = 'sq{s}'\nshape = 'square'\nside = {s}\n" for s in (2, 3, 4)))
+    out = tmp_path / "out"
+    env = {**os.environ, "GROUNDPLANE_CACHE": str(tmp_path / "cache")}
+    cmd = [sys.executable, "-m", "groundplane", "sweep", str(cfg), "-o", str(out)]
+    proc = subprocess.Popen(cmd, env=env, cwd=ROOT, start_new_session=True,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    jsonl = out / "results.jsonl"
+    t0 = time.time()
+    while time.time() - t0 < 300 and not (jsonl.exists() and jsonl.read_text().count("\n") >= 1):
+        time.sleep(0.2)
+    os.killpg(proc.pid, signal.SIGKILL)  # the whole group: sweep and its NEC workers
+    proc.wait()
+    first = [json.loads(l) for l in jsonl.read_text().splitlines()]
+    assert 1 <= len(first) < 3, "the kill should land mid-sweep"
+    rerun = subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert rerun.returncode == 0, rerun.stderr
+    rows = [json.loads(l) for l in jsonl.read_text().splitlines()]
+    names = [r["name"] for r in rows]
+    assert sorted(names) == ["sq2", "sq3", "sq4"]  # every candidate once: none lost, none redone
+    assert rows[: len(first)] == first
+    assert (out / "report.md").exists() and (out / "results.csv").exists()
+
+def test_sweep_ranks_a_beam_file_with_solved_candidates(tmp_path, monkeypatch):
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path / "cache"))
+    f = np.arange(55.0, 98.0, 6.0)
+    hb = Beam.load(EXAMPLE_BEAM)
+    fake = Beam(f, hb.theta_deg, hb.phi_deg, np.repeat(hb.gain[:1], f.size, axis=0) * (1 + 0.01 * np.sin(f / 3))[:, None, None])
+    fake.save(tmp_path / "export.npz")
+    cfg = write_cfg(tmp_path, "[[candidate]]\nshape = 'square'\nside = 2\n"
+                              "[[candidate]]\nname = 'from-feko'\nbeam = 'export.npz'\nmetal_area_m2 = 4\n")
+    cands, invalid, settings = load_config(cfg)
+    rows = run_sweep(cands, settings, tmp_path / "out", progress=False)
+    assert {r["name"]: r["status"] for r in rows} == {"square-2": "ok", "from-feko": "ok"}
+    assert next(r for r in rows if r["name"] == "from-feko")["metal_area_m2"] == 4
+    again = run_sweep(cands, settings, tmp_path / "out", progress=False)
+    assert len(ResultStore(tmp_path / "out").path.read_text().splitlines()) == 2  # nothing redone
+    assert [r["lst_averaged_fom_mk"] for r in again] == [r["lst_averaged_fom_mk"] for r in rows]
+
+def test_sweep_on_dask_local_cluster(tmp_path, monkeypatch):
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path / "cache"))
+    cfg = write_cfg(tmp_path, "[[candidate]]\nshape = 'square'\nside = 2\n[[candidate]]\nshape = 'plus'\narm = 1\n")
+    cands, _, settings = load_config(cfg)
+    rows = run_sweep(cands, settings, tmp_path / "out", executor="dask", progress=False)
+    assert all(r["status"] == "ok" for r in rows) and len(rows) == 2
+    local = run_sweep(cands, settings, tmp_path / "local", progress=False)  # solves are cached by now
+    assert [r["lst_averaged_fom_mk"] for r in rows] == pytest.approx([r["lst_averaged_fom_mk"] for r in local])
+
+def test_config_and_cli_take_plate_height_and_a_finer_centre(tmp_path):
+    from groundplane.cli import build_parser
+    from optimise.cli import eval_settings
+
+    cfg = tmp_path / "s.toml"
+    cfg.write_text("[solver]\nmesh = 1.0\nplate_height = 0.03\nrefine_centre = [2.0, 4]\n"
+                   "[[candidate]]\npreset = 'square-10'\n")
+    _, _, settings = load_config(cfg)
+    mesh = settings.solver_settings()
+    assert (mesh.plate_height, mesh.refine_half_width, mesh.refine_factor) == (0.03, 2.0, 4)
+    args = build_parser().parse_args(["optimise", "--shape", "square", "--max-area", "100", "-o", "x",
+                                      "--refine-centre", "2", "4", "--plate-height", "0.03"])
+    mesh = eval_settings(args).solver_settings()
+    assert (mesh.plate_height, mesh.refine_half_width, mesh.refine_factor) == (0.03, 2.0, 4)
+    args = build_parser().parse_args(["optimise", "--shape", "square", "--max-area", "100", "-o", "x",
+                                      "--refine-centre", "2", "2.5"])
+    with pytest.raises(ConfigError, match="whole number"):
+        eval_settings(args)
