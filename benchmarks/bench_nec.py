@@ -21,20 +21,21 @@ import numpy as np
 
 from groundplane.design import Design, InfinitePEC, Soil
 from groundplane.shapes import PRESETS
-from solvers.nec import MeshSettings, NecSolver, build_model
+from solvers.engines.nec import NecSettings, NecSolver, build_model
+from solvers.engines.nec.engine import context
 
 
-def timed(design: Design, mesh: MeshSettings, freqs, workers: int = 1) -> tuple[float, int]:
+def timed(design: Design, mesh: NecSettings, freqs, workers: int = 1) -> tuple[float, int]:
     t0 = time.perf_counter()
-    NecSolver(mesh=mesh, workers=workers, progress=False, use_cache=False).solve(design, freqs)
+    NecSolver(mesh, workers=workers, progress=False, use_cache=False).solve(design, freqs)
     return time.perf_counter() - t0, build_model(design, mesh).n_segments
 
 
 def profile_child() -> None:
     """One frequency in this process (no healpy here, so PyNEC may load): fill + LU, pattern."""
-    model = build_model(Design(PRESETS["sawtooth-20-16"], Soil()), MeshSettings())
+    model = build_model(Design(PRESETS["sawtooth-20-16"], Soil()), NecSettings())
     t0 = time.perf_counter()
-    c = model.build(75.0)
+    c = context(model, 75.0)
     c.xq_card(0)  # fill + LU + solve, no pattern
     t1 = time.perf_counter()
     c.rp_card(0, 91, 91, 0, 0, 0, 0, 0.0, 0.0, 1.0, 1.0, 0, 0)
@@ -61,19 +62,19 @@ def main() -> None:
         return profile_child()
     if a.profile:
         return profile()
-    base, nseg = timed(Design(None, InfinitePEC()), MeshSettings(), [75.0])
+    base, nseg = timed(Design(None, InfinitePEC()), NecSettings(), [75.0])
     print(f"baseline: blade over PEC, {nseg} segments, 1 frequency, 1 process: {base:.2f} s (incl. process start)")
     print(f"{'candidate':>16} {'spacing':>8} {'segments':>9} {'s/freq':>8} {'x baseline':>10}")
     for sp in a.spacings:
-        t, n = timed(Design(PRESETS["square-10"], Soil()), MeshSettings(spacing=sp), [75.0])
+        t, n = timed(Design(PRESETS["square-10"], Soil()), NecSettings(spacing=sp), [75.0])
         print(f"{'square-10':>16} {sp:8.2f} {n:9d} {t:8.2f} {t / base:10.1f}")
     for name in ("square-10", "sawtooth-20-16"):
         d = Design(PRESETS[name], Soil())
         if a.full:
-            t, n = timed(d, MeshSettings(), np.arange(40.0, 101.0), workers=2)
+            t, n = timed(d, NecSettings(), np.arange(40.0, 101.0), workers=2)
             print(f"{name}: 61 frequencies, 2 processes, {n} segments: {t / 60:.1f} min")
         else:
-            t, n = timed(d, MeshSettings(), [75.0])
+            t, n = timed(d, NecSettings(), [75.0])
             print(f"{name}: {n} segments, {t:.1f} s per frequency (1 process) -> ~{61 * t / 2 / 60:.1f} min "
                   f"for 61 frequencies on 2 processes")
 

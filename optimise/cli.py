@@ -22,23 +22,24 @@ def add_eval_options(p: argparse.ArgumentParser) -> None:
 
 
 def eval_settings(args: argparse.Namespace) -> EvalSettings:
+    """EvalSettings from the parsed command line (options not given take the dataclass defaults)."""
     soil, solve, model = solve_options(args)
     return EvalSettings(soil=soil, solver=model, freqs_mhz=solve.freqs_mhz, workers=solve.workers,
                         engine=solve.engine, fom=from_args(FomSettings, args))
 
 
 @command("sweep", "solve, score and rank the candidates of a TOML file (resumable)")
-def setup_sweep(p: argparse.ArgumentParser):
+def _setup_sweep(p: argparse.ArgumentParser):
     p.add_argument("config", help="sweep TOML (see optimise/sweep.py for the format)")
     p.add_argument("-o", "--out", default=None,
                    help="output folder (default: ./sweep-<config name> in the working directory)")
     p.add_argument("--executor", choices=["local", "dask"], default="local")
     p.add_argument("--scheduler", help="Dask scheduler address (default: a local cluster)")
     p.add_argument("--retry-failed", action="store_true", help="solve failed candidates again")
-    return run_sweep_cmd
+    return _run_sweep_cmd
 
 
-def run_sweep_cmd(args: argparse.Namespace) -> int:
+def _run_sweep_cmd(args: argparse.Namespace) -> int:
     from .report import write_report
     from .sweep import load_config, run_sweep, summary_table
 
@@ -54,7 +55,7 @@ def run_sweep_cmd(args: argparse.Namespace) -> int:
 
 
 @command("optimise", "nlopt search of a shape family under a metal-area budget")
-def setup_optimise(p: argparse.ArgumentParser):
+def _setup_optimise(p: argparse.ArgumentParser):
     from .search import optimisable
 
     p.add_argument("--shape", required=True, choices=optimisable())
@@ -66,10 +67,10 @@ def setup_optimise(p: argparse.ArgumentParser):
     p.add_argument("--step", action="store_true", help="write the best design's STEP")
     add_eval_options(p)
     p.add_argument("-o", "--out", required=True)
-    return run_optimise
+    return _run_optimise
 
 
-def run_optimise(args: argparse.Namespace) -> int:
+def _run_optimise(args: argparse.Namespace) -> int:
     from groundplane.plots import pyplot
     from groundplane.shapes import preset
 
@@ -136,7 +137,7 @@ def _history_plot(plt, history, path: Path, max_area: float) -> None:
 
 
 @command("study", "run a study: the paper's reproductions (design-study, soil-sweep) and the model studies")
-def setup_study(p: argparse.ArgumentParser):
+def _setup_study(p: argparse.ArgumentParser):
     from .studies import STUDIES
 
     p.add_argument("name", choices=sorted(STUDIES), help="; ".join(f"{k}: {s.help}" for k, s in sorted(STUDIES.items())))
@@ -145,10 +146,10 @@ def setup_study(p: argparse.ArgumentParser):
                    help="design-study: also solve at this plate spacing and report how rows and conclusions move")
     p.add_argument("--feko-dir", type=Path, help="feko-40mhz: folder of the four FEKO quadrant files")
     add_eval_options(p)
-    return run_study_cmd
+    return _run_study_cmd
 
 
-def run_study_cmd(args: argparse.Namespace) -> int:
+def _run_study_cmd(args: argparse.Namespace) -> int:
     from groundplane.design import Soil
 
     from .studies import STUDIES, run_study

@@ -17,6 +17,7 @@ from .evaluate import RESIDUAL_LSTS_H
 
 
 def ranked(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Scored rows by FoM (best first), then the rows that were not scored."""
     ok = sorted([r for r in rows if r.get("status") == "ok"], key=lambda r: r["lst_averaged_fom_mk"])
     return ok + [r for r in rows if r.get("status") != "ok"]
 

@@ -117,6 +117,8 @@ class History:
 
 @dataclass
 class OptimiseResult:
+    """The best history row (None if nothing feasible was scored), every row, and where they are."""
+
     best: dict[str, Any] | None
     history: list[dict[str, Any]]
     out_dir: Path

@@ -253,6 +253,7 @@ def _run_dask(todo, settings, store, keys, scheduler, progress) -> None:
 
 
 def summary_table(rows: list[dict[str, Any]]) -> str:
+    """The ranking as fixed-width text for the terminal."""
     ok = sorted([r for r in rows if r.get("status") == "ok"], key=lambda r: r["lst_averaged_fom_mk"])
     lines = [f"{'rank':>4} {'candidate':24s} {'metal (m^2)':>11} {'extent (m)':>10} {'FoM (mK)':>9}"]
     for i, r in enumerate(ok, 1):

@@ -47,7 +47,7 @@ def solve_options_from_mapping(values: Mapping[str, Any], where: str) -> tuple[S
 
 
 @command("solve", "solve a candidate with an EM engine (NEC-2 by default) and write the native beam file")
-def setup_solve(p: argparse.ArgumentParser):
+def _setup_solve(p: argparse.ArgumentParser):
     add_shape_options(p, required=False)
     p.add_argument("--ground", choices=["soil", "pec"], default="soil",
                    help="lossy soil under the plate (default) or infinite PEC ground with no plate")
@@ -55,10 +55,10 @@ def setup_solve(p: argparse.ArgumentParser):
     p.add_argument("--no-cache", action="store_true", help="neither read nor write the beam cache")
     p.add_argument("--deck", metavar="FILE.nec", help="also write the NEC-2 input deck")
     p.add_argument("-o", "--output", required=True, help="beam.npz")
-    return run_solve
+    return _run_solve
 
 
-def run_solve(args: argparse.Namespace) -> int:
+def _run_solve(args: argparse.Namespace) -> int:
     from groundplane.design import Design, InfinitePEC
 
     from .engines import make_solver

@@ -46,6 +46,7 @@ def load_commands() -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The parser with every registered sub-command attached."""
     load_commands()
     p = argparse.ArgumentParser(prog="groundplane", description="Design ground planes for low-frequency "
                                 "radio antennas: shapes, MoM solves, the chromaticity FoM, optimisation.")

@@ -19,7 +19,7 @@ def _format_choices() -> list[str]:
 
 
 @command("fom", "score beam file(s): LST-averaged chromaticity FoM (mK)")
-def setup_fom(p: argparse.ArgumentParser):
+def _setup_fom(p: argparse.ArgumentParser):
     p.add_argument("paths", nargs="+", help="beam file(s); several FEKO quadrant .ffe files make one beam")
     p.add_argument("--format", default="auto", choices=_format_choices(), help="beam file format (default: detect)")
     add_options(p, FomSettings, "Figure of Merit (defaults: the paper's)")
@@ -31,10 +31,10 @@ def setup_fom(p: argparse.ArgumentParser):
                         "which removes narrow-band solver artefacts (and any real structure that narrow)")
     p.add_argument("--json", action="store_true", help="print a JSON object")
     p.add_argument("--plot", metavar="FILE.png", help="FoM vs LST and residual spectra")
-    return run_fom
+    return _run_fom
 
 
-def run_fom(args: argparse.Namespace) -> int:
+def _run_fom(args: argparse.Namespace) -> int:
     from ..beam import Beam
     from ..fom import chromaticity_report, figure_of_merit
 
@@ -70,12 +70,12 @@ def run_fom(args: argparse.Namespace) -> int:
 
 
 @command("shapes", "list the design-study presets and the shape families")
-def setup_shapes(p: argparse.ArgumentParser):
+def _setup_shapes(p: argparse.ArgumentParser):
     p.add_argument("--json", action="store_true")
-    return run_shapes
+    return _run_shapes
 
 
-def run_shapes(args: argparse.Namespace) -> int:
+def _run_shapes(args: argparse.Namespace) -> int:
     rows = [{"name": n, **s.summary()} for n, s in sh.PRESETS.items()]
     if args.json:
         print(json.dumps(rows, indent=2))
@@ -90,15 +90,15 @@ def run_shapes(args: argparse.Namespace) -> int:
 
 
 @command("export", "write a ground plane as STEP, STL, SVG or PNG")
-def setup_export(p: argparse.ArgumentParser):
+def _setup_export(p: argparse.ArgumentParser):
     add_shape_options(p)
     p.add_argument("-o", "--output", required=True, help="FILE.step | FILE.stl | FILE.svg | FILE.png")
     p.add_argument("--thickness", type=float, default=0.002, help="plate thickness in m (default 0.002)")
     p.add_argument("--with-antenna", action="store_true", help="STEP assembly with the blade panels")
-    return run_export
+    return _run_export
 
 
-def run_export(args: argparse.Namespace) -> int:
+def _run_export(args: argparse.Namespace) -> int:
     from .. import cad
 
     shape = shape_from_args(args)
@@ -109,14 +109,14 @@ def run_export(args: argparse.Namespace) -> int:
 
 
 @command("convert", "read any supported beam export, write the native .npz")
-def setup_convert(p: argparse.ArgumentParser):
+def _setup_convert(p: argparse.ArgumentParser):
     p.add_argument("paths", nargs="+")
     p.add_argument("--format", default="auto", choices=_format_choices())
     p.add_argument("-o", "--output", required=True)
-    return run_convert
+    return _run_convert
 
 
-def run_convert(args: argparse.Namespace) -> int:
+def _run_convert(args: argparse.Namespace) -> int:
     from ..beam import Beam
 
     beam = Beam.from_file(args.paths, args.format)

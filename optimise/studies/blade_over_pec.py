@@ -64,5 +64,5 @@ def blade_over_pec(out: Path, command: str) -> None:
 
 
 @study("blade-over-pec", "the blade over infinite PEC: blade mesh and a grounded balun")
-def run(out: Path, settings, command: str, **extra) -> None:
+def _run(out: Path, settings, command: str, **extra) -> None:
     blade_over_pec(out, command, **extra)

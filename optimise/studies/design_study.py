@@ -26,7 +26,7 @@ DESIGN_STUDY = list(paper.TABLE3_FOM_MK.items())  # (preset, paper FoM mK), in t
 
 @study("design-study", "the paper's Table 3: nine ground planes, their FoM and conclusions (i)-(iii)",
        uses_settings=True)
-def run(out: Path, settings: EvalSettings, command: str, compare_mesh: float | None = None) -> None:
+def _run(out: Path, settings: EvalSettings, command: str, compare_mesh: float | None = None) -> None:
     from dataclasses import replace
 
     compare = None
@@ -151,8 +151,8 @@ def conclusions(table: list[dict], column: str = "our_fom_mk") -> list[str]:
 def _design_md(table: list[dict], settings: EvalSettings, command: str,
                other: list[dict] | None = None, compare: EvalSettings | None = None,
                pec_fom: float | None = None) -> str:
-    sp = settings.solver_settings().spacing
-    osp = compare.solver_settings().spacing if compare else None
+    sp = _mesh_label(settings)
+    osp = _mesh_label(compare) if compare else None
     lines = [
         "# Design study (Mahesh et al. 2021, Table 3) reproduced with NEC-2",
         "",
@@ -166,7 +166,7 @@ def _design_md(table: list[dict], settings: EvalSettings, command: str,
     head = ("| preset | metal area (m^2) | paper FoM (mK) | our FoM (mK) | ratio | FoM, G(nu) smoothed (mK) | "
             "segments | NEC time (s) |")
     if other:
-        head += f" our FoM at {osp:g} m (mK) | change {osp:g} -> {sp:g} m |"
+        head += f" our FoM at {osp} (mK) | change {_arrow(osp, sp)} |"
     lines += [head, "|" + "---|" * head.count(" |")]
 
     def change(i: int) -> float | None:
@@ -191,23 +191,23 @@ def _design_md(table: list[dict], settings: EvalSettings, command: str,
                       f"{pec_fom:.1f} mK vs the paper's {PAPER_PEC_FOM_MK} mK (x{r0:.2f}). That factor is the "
                       "antenna model's share of every row's gap; a row whose ratio is well above it disagrees "
                       "about the ground plane itself."]
-    lines += ["", f"## The paper's conclusions, from our numbers at {sp:g} m", ""] + conclusions(table)
+    lines += ["", f"## The paper's conclusions, from our numbers at {sp}", ""] + conclusions(table)
     if other:
-        lines += ["", f"Same conclusions at {osp:g} m, to show whether they survive mesh refinement:", ""]
+        lines += ["", f"Same conclusions at {osp}, to show whether they survive mesh refinement:", ""]
         lines += conclusions(other)
     if any(t.get("smoothed_fom_mk") is not None for t in table):
         lines += ["", f"Same conclusions on the FoM with G(nu) smoothed (degree-{SMOOTHING_DEGREE} Chebyshev fit "
                       f"per direction, "
                       f"removing the narrow-band resonances of the wire grid with the ground 5 cm below it; "
-                      f"`results/spectral_artefacts.md`), at {sp:g} m:", ""]
+                      f"`results/spectral_artefacts.md`), at {sp}:", ""]
         lines += conclusions(table, "smoothed_fom_mk")
         if other and any(t.get("smoothed_fom_mk") is not None for t in other):
-            lines += ["", f"and at {osp:g} m:", ""] + conclusions(other, "smoothed_fom_mk")
+            lines += ["", f"and at {osp}:", ""] + conclusions(other, "smoothed_fom_mk")
     lines += _off_rows_md(table, other, sp, osp, r0)
     return "\n".join(lines) + "\n"
 
 
-def _off_rows_md(table: list[dict], other: list[dict] | None, sp: float, osp: float | None,
+def _off_rows_md(table: list[dict], other: list[dict] | None, sp: str, osp: str | None,
                  r0: float | None) -> list[str]:
     """The section on rows more than 25 % from the paper, each with its likely causes."""
     def change(i: int) -> float | None:
@@ -226,7 +226,7 @@ def _off_rows_md(table: list[dict], other: list[dict] | None, sp: float, osp: fl
                   "(`results/spectral_artefacts.md`: for the large plates most of our FoM). Per row:", ""]
         for i, t in off:
             c = change(i) if other else None
-            mesh = (f"refining the mesh {osp:g} -> {sp:g} m moved it {c:+.1f} %, so (b) is "
+            mesh = (f"refining the mesh {_arrow(osp, sp)} moved it {c:+.1f} %, so (b) is "
                     f"{'a large' if abs(c) > 10 else 'a modest' if abs(c) > 3 else 'a small'} part of this row's gap"
                     if c is not None else "the size of (b) for this shape is not measured")
             plate = "" if r0 is None else (
@@ -246,3 +246,16 @@ def _mesh_change(table: list[dict], other: list[dict] | None, i: int) -> float |
     """How much row ``i`` moved (%) from the comparison mesh to the main one."""
     a, b = other[i]["our_fom_mk"] if other else None, table[i]["our_fom_mk"]
     return None if a is None or b is None else 100 * (b / a - 1)
+
+
+def _mesh_label(settings: EvalSettings) -> str:
+    """'0.7 m' for a wire-grid engine; the engine's name for one without a plate spacing."""
+    spacing = getattr(settings.solver_settings(), "spacing", None)
+    return f"{spacing:g} m" if spacing is not None else settings.engine
+
+
+def _arrow(a: str | None, b: str) -> str:
+    """'1 -> 0.7 m' (one unit when both are spacings)."""
+    if a and a.endswith(" m") and b.endswith(" m"):
+        return f"{a[:-2]} -> {b}"
+    return f"{a} -> {b}"

@@ -62,5 +62,5 @@ def feed_calibration(out: Path, command: str) -> None:
 
 
 @study("feed-calibration", "NEC-2 feed: mean gain over PEC vs blade mesh; does the PEC calibration carry to soil")
-def run(out: Path, settings, command: str, **extra) -> None:
+def _run(out: Path, settings, command: str, **extra) -> None:
     feed_calibration(out, command, **extra)

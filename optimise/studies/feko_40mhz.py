@@ -92,5 +92,5 @@ def feko_40mhz(out: Path, command: str, feko_dir: Path | None = None) -> None:
 
 
 @study("feko-40mhz", "NEC beams vs the FEKO low-band export at 40 MHz (needs the FEKO files; --feko-dir)")
-def run(out: Path, settings, command: str, **extra) -> None:
+def _run(out: Path, settings, command: str, **extra) -> None:
     feko_40mhz(out, command, **extra)

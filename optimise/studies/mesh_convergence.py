@@ -33,6 +33,7 @@ GRADED = [(0.5, 2.5, 2, True), (1.0, 2.0, 4, False), (0.5, 1.5, 2, False)]  # la
 
 
 def mesh_convergence(out: Path, command: str) -> None:
+    """square-10 over soil at several spacings, wire radii and graded meshes (resumable)."""
     rows: list[dict] = []
     design = Design(PRESETS["square-10"], Soil())
 
@@ -47,7 +48,7 @@ def mesh_convergence(out: Path, command: str) -> None:
             "",
             f"Command: `{command}` (resumable; cached solves).",
             f"Machine: {machine()}. Blade 12 x 10 cells, 2 mm wires; plate 5 cm above the soil;",
-            "absolute gain calibrated on the blade over infinite PEC (see solvers/nec.py).",
+            "absolute gain calibrated on the blade over infinite PEC (see solvers/engines/nec/solver.py).",
             "",
             "| spacing (m) | finer centre | wire radius (m) | segments | zenith gain at 75 MHz (dBi) | "
             "efficiency at 75 MHz | LST-averaged FoM (mK) | solver time summed over frequencies (s) |",
@@ -169,5 +170,5 @@ def _default_mesh_choice(rows: list[dict]) -> list[str]:
 
 
 @study("mesh-convergence", "NEC-2 mesh convergence on square-10: FoM, zenith gain, efficiency vs spacing")
-def run(out: Path, settings, command: str, **extra) -> None:
+def _run(out: Path, settings, command: str, **extra) -> None:
     mesh_convergence(out, command, **extra)

@@ -104,7 +104,7 @@ def spectral_artefacts(out: Path, command: str) -> None:
 
 
 @study("spectral-artefacts", "narrow-band structure in NEC beams: FoM before/after smoothing, 0.25 MHz sweeps, plate height")
-def run(out: Path, settings, command: str, **extra) -> None:
+def _run(out: Path, settings, command: str, **extra) -> None:
     spectral_artefacts(out, command, **extra)
 
 

@@ -61,5 +61,5 @@ def validation(out: Path, command: str, mesh: NecSettings = NecSettings()) -> No
 
 
 @study("validation", "NEC-2 vs the paper: blade over PEC (Table 1 widths, Table 2 FoM), square-10 and extended on soil")
-def run(out: Path, settings, command: str, **extra) -> None:
+def _run(out: Path, settings, command: str, **extra) -> None:
     validation(out, command, **extra)

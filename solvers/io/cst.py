@@ -28,6 +28,7 @@ _MAGNITUDE = ("abs(realized gain)", "abs(gain)", "abs(dir.)", "abs(directivity)"
 
 
 def frequency_from_name(path: Path) -> float | None:
+    """The frequency (MHz) CST writes into an export's name as ``f=<number>``, or None."""
     m = _FREQ_IN_NAME.search(path.name)
     if not m:
         return None

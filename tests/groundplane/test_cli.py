@@ -55,3 +55,33 @@ def test_cli_export_and_errors(tmp_path, capsys):
     assert main(["export", "square", "--side", "3", "--arm", "2", "-o", str(out)]) == 2
     assert "does not take --arm" in capsys.readouterr().err
 
+
+
+def test_exit_codes_user_error_solver_failure_and_bug(capsys):
+    from groundplane.cli import COMMANDS, command
+    from groundplane.errors import SolveError, UserInputError
+
+    def make(exc):
+        def setup(p):
+            return lambda args: (_ for _ in ()).throw(exc)
+        return setup
+
+    try:
+        command("t-user", "test")(make(UserInputError("bad flag")))
+        command("t-solver", "test")(make(SolveError("engine died")))
+        command("t-bug", "test")(make(KeyError("oops")))
+        assert main(["t-user"]) == 2 and "error: bad flag" in capsys.readouterr().err
+        assert main(["t-solver"]) == 1 and "failed: engine died" in capsys.readouterr().err
+        with pytest.raises(KeyError):  # a bug keeps its traceback
+            main(["t-bug"])
+    finally:
+        for k in ("t-user", "t-solver", "t-bug"):
+            COMMANDS.pop(k, None)
+
+
+def test_shape_flags_say_which_family_uses_them(capsys):
+    with pytest.raises(SystemExit):
+        main(["export", "--help"])
+    out = capsys.readouterr().out
+    assert "[square, sawtooth] side of the central square (m) / side of the square (m)" in " ".join(out.split())
+    assert "[sawtooth] triangles on each side" in " ".join(out.split())

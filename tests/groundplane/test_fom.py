@@ -48,9 +48,8 @@ def test_uniform_beam_sees_mean_visible_sky():
     import astropy.units as u
     import healpy as hp
     from astropy.coordinates import AltAz, SkyCoord
-    from groundplane.sky import location
 
-    from groundplane.sky import MRO, load_sky_map, lst_times
+    from groundplane.sky import MRO, load_sky_map, location, lst_times
 
     theta, phi = np.arange(91.0), np.arange(360.0)
     freqs = np.array([50.0, 75.0, 100.0])

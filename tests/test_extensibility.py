@@ -1,0 +1,139 @@
+"""The layered design's promise: a shape family, a beam format and a solver engine are
+each added from outside the package (here, this test file alone) and every command picks
+them up: shapes, export, sweep, optimise, fom and the design-study reproduction."""
+import hashlib
+import json
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import pytest
+
+from groundplane.beam import Beam
+from groundplane.cli import main
+from groundplane.options import option
+from groundplane.shapes import SHAPES, GroundPlane, param
+from solvers.engines import ENGINES, register_engine
+from solvers.io import FORMATS, BeamFormat, register_format
+
+LIGHT = ["--freqs", "55:97:3", "--n-lst", "24"]
+
+
+@pytest.fixture
+def toy_family():
+    """A rectangle family declared here and nowhere else."""
+
+    class Rectangle(GroundPlane, kind="toy-rectangle"):
+        length: float = param("length along the excitation axis (m)", bounds=(2.0, 20.0))
+        width: float = param("width across the excitation axis (m)", bounds=(2.0, 20.0))
+
+        def _vertices(self):
+            a, b = self.length / 2, self.width / 2
+            return np.array([[-a, -b], [a, -b], [a, b], [-a, b]])
+
+        @classmethod
+        def area_of(cls, p):
+            return p["length"] * p["width"]
+
+    yield Rectangle
+    SHAPES.pop("toy-rectangle")
+
+
+@dataclass(frozen=True)
+class StandInSettings:
+    ripple: float = option(0.02, "relative spectral ripple of a 100 m^2 plate (stand-in engine)")
+
+    def as_dict(self):
+        return asdict(self)
+
+
+@pytest.fixture
+def stand_in_engine():
+    """A solver that honours the protocol without NEC: chromaticity falls with metal area."""
+
+    @register_engine
+    class StandIn:
+        name = "stand-in"
+        settings_class = StandInSettings
+        solved: list = []
+
+        def __init__(self, settings=None, *, workers=2, progress=False, use_cache=True):
+            self.settings = settings or StandInSettings()
+
+        def cache_key(self, design, freqs_mhz):
+            blob = design.canonical() + json.dumps([float(f) for f in freqs_mhz]) + json.dumps(self.settings.as_dict())
+            return hashlib.sha256(blob.encode()).hexdigest()[:32]
+
+        def cached(self, design, freqs_mhz=()):
+            return None
+
+        def solve(self, design, freqs_mhz=np.arange(40.0, 101.0)):
+            f = np.asarray(list(freqs_mhz), dtype=float)
+            area = design.plane.metal_area if design.plane is not None else 1e4
+            amp = self.settings.ripple * 100.0 / area
+            th, ph = np.arange(91.0), np.arange(360.0)
+            g = 2 * np.cos(np.radians(th))[None, :, None] ** 2 * (1 + amp * np.sin(f / 3))[:, None, None]
+            StandIn.solved.append(design.label())
+            return Beam(f, th, ph, np.repeat(g, ph.size, axis=2),
+                        {"source": f"stand-in {design.label()}", "n_segments": 0,
+                         "seconds_per_frequency": [0.0] * f.size, "cache_key": self.cache_key(design, f)})
+
+    yield StandIn
+    ENGINES.pop("stand-in")
+
+
+def test_toy_family_in_shapes_export_sweep_and_optimiser(toy_family, stand_in_engine, tmp_path, capsys):
+    assert main(["shapes"]) == 0
+    assert "toy-rectangle (length, width)" in capsys.readouterr().out
+    stl = tmp_path / "r.stl"
+    assert main(["export", "toy-rectangle", "--length", "4", "--width", "3", "-o", str(stl)]) == 0
+    assert "metal area 12.00 m^2" in capsys.readouterr().out and stl.stat().st_size > 0
+    assert main(["export", "toy-rectangle", "--length", "4", "-o", str(stl)]) == 2
+    assert "toy-rectangle needs --width" in capsys.readouterr().err
+    cfg = tmp_path / "s.toml"
+    cfg.write_text('[solver]\nengine = "stand-in"\nripple = 0.05\nfreqs = "55:97:3"\n[fom]\nn_lst = 24\n'
+                   '[[family]]\nshape = "toy-rectangle"\nlength = [4, 8]\nwidth = 5\n')
+    assert main(["sweep", str(cfg), "-o", str(tmp_path / "sweep")]) == 0
+    rows = {r["name"]: r for r in json.loads((tmp_path / "sweep" / "results.json").read_text())}
+    assert set(rows) == {"toy-rectangle-4-5", "toy-rectangle-8-5"}
+    assert rows["toy-rectangle-8-5"]["lst_averaged_fom_mk"] < rows["toy-rectangle-4-5"]["lst_averaged_fom_mk"]
+    capsys.readouterr()
+    rc = main(["optimise", "--shape", "toy-rectangle", "--max-area", "60", "--budget", "8", "--engine", "stand-in",
+               *LIGHT, "-o", str(tmp_path / "opt")])
+    assert rc == 0, capsys.readouterr().err
+    best = json.loads((tmp_path / "opt" / "best.json").read_text())
+    assert best["area_m2"] <= 60 * (1 + 1e-9) and set(best["params"]) == {"length", "width"}
+    assert any("toy-rectangle" not in s and "Rectangle(" in s for s in stand_in_engine.solved)
+
+
+def test_toy_beam_format_read_by_fom(tmp_path, capsys):
+    def read(paths):
+        lo, hi, step = (float(v) for v in paths[0].read_text().split()[1:4])
+        f = np.arange(lo, hi + step / 2, step)
+        th, ph = np.arange(91.0), np.arange(0.0, 360.0, 2.0)
+        g = 2 * np.cos(np.radians(th))[None, :, None] ** 2 * (1 + 0.01 * np.sin(f / 4))[:, None, None]
+        return Beam(f, th, ph, np.repeat(g, ph.size, axis=2), {"source": str(paths[0]), "format": "toy"})
+
+    register_format(BeamFormat("toy", sniff=lambda head: head.startswith(b"TOYBEAM"), read=read))
+    try:
+        path = tmp_path / "beam.toy"
+        path.write_text("TOYBEAM 50 100 1\n")
+        assert main(["fom", str(path), "--format", "toy", "--n-lst", "24"]) == 0
+        assert "mK  LST-averaged FoM of" in capsys.readouterr().out
+        assert main(["fom", str(path), "--n-lst", "24", "--json"]) == 0  # found by content too
+        assert json.loads(capsys.readouterr().out)["beam"]["format"] == "toy"
+        assert Beam.from_file(path).meta["format"] == "toy"
+    finally:
+        FORMATS.pop("toy")
+
+
+def test_stand_in_solver_runs_the_design_study(stand_in_engine, tmp_path):
+    from optimise.evaluate import EvalSettings
+    from optimise.studies import run_study
+
+    settings = EvalSettings(engine="stand-in", solver=StandInSettings(), freqs_mhz=tuple(np.arange(55.0, 98.0, 3.0)))
+    settings = EvalSettings(**{**settings.__dict__, "fom": settings.fom.__class__(n_lst=24)})
+    run_study("design-study", tmp_path, settings)
+    md = (tmp_path / "design_study.md").read_text()
+    assert "(i) larger area, lower FoM within a shape" in md
+    assert "blade dipole over infinite PEC ground" in stand_in_engine.solved  # the PEC reference row
+    assert len([s for s in stand_in_engine.solved if "soil" in s]) == 9
