@@ -133,10 +133,10 @@ def sky_for(beam: Beam, settings: FomSettings, progress: bool = False) -> Horizo
 def beam_sky_products(beam: Beam, sky: HorizonSky) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(sum G w T408 [f, lst], sum G w [f], sum w T408 [lst]) over the upper hemisphere."""
     hemi, w = _hemisphere(beam)
-    n_pix = w.size
-    g = hemi.gain.reshape(hemi.freqs_mhz.size, n_pix)
-    wt = sky.weighted(w)  # [pix, lst]
-    return g @ wt, g @ w.ravel(), wt.sum(axis=0)
+    g = hemi.gain.reshape(hemi.freqs_mhz.size, w.size)
+    t = sky.matrix()  # [lst, pix]
+    gw = g * w.reshape(1, -1)
+    return gw @ t.T, gw.sum(axis=1), t @ w.ravel()
 
 
 def antenna_temperature(

@@ -155,23 +155,18 @@ class HorizonSky:
     phi_deg: np.ndarray
     t408: np.ndarray
     key: str
-    _weighted: dict = field(default_factory=dict, compare=False, repr=False)
+    _weighted: dict = field(default_factory=dict, compare=False, repr=False)  # the float64 matrix, once made
 
     @property
     def lst_hours(self) -> np.ndarray:
         return self.lsts_deg / 15.0
 
-    def weighted(self, weights: np.ndarray) -> np.ndarray:
-        """``dOmega * T408`` as a [pixel, LST] matrix (float64), kept for reuse: every beam
-        on this grid is then scored by one matrix product."""
-        k = hashlib.sha256(np.ascontiguousarray(weights).tobytes()).hexdigest()[:16]
-        if k not in self._weighted:
-            n_pix = weights.size
-            m = np.empty((n_pix, self.t408.shape[0]))
-            np.multiply(self.t408.reshape(self.t408.shape[0], n_pix).T, weights.reshape(n_pix, 1), out=m)
-            self._weighted.clear()
-            self._weighted[k] = m
-        return self._weighted[k]
+    def matrix(self) -> np.ndarray:
+        """``T408`` as a float64 [LST, pixel] matrix, made once and kept: every beam on this
+        grid is then scored by one matrix product with its solid-angle-weighted gain."""
+        if "m" not in self._weighted:
+            self._weighted["m"] = self.t408.reshape(self.t408.shape[0], -1).astype(np.float64)
+        return self._weighted["m"]
 
 
 _MEMORY: dict[str, HorizonSky] = {}
@@ -191,10 +186,9 @@ def horizon_sky(
     """The sky in the antenna's horizon frame for every LST, from memory, disk or computed.
 
     The disk cache is keyed by site, grid, LST set, antenna azimuth and the map's content
-    hash, written atomically, and is safe to delete.
+    hash, written atomically with a CRC-32 beside it, and is safe to delete; an entry that
+    fails its check is recomputed, never used.
     """
-    import healpy as hp
-
     lsts = lst_grid() if lsts_deg is None else np.asarray(lsts_deg, dtype=float)
     theta = np.asarray(theta_deg, dtype=float)
     phi = np.asarray(phi_deg, dtype=float)
@@ -212,33 +206,71 @@ def horizon_sky(
     if key in _MEMORY:
         return _MEMORY[key]
     file = cache_dir() / f"horizon_sky_{key}.npy"
-    t408 = None
-    if use_disk_cache and file.exists():
-        try:
-            t408 = np.load(file, allow_pickle=False)
-            if t408.shape != (lsts.size, theta.size, phi.size):
-                t408 = None
-        except (OSError, ValueError):
-            t408 = None  # a damaged cache entry is recomputed, never trusted
+    shape = (lsts.size, theta.size, phi.size)
+    t408 = _read_sky_cache(file, shape) if use_disk_cache else None
     if t408 is None:
-        sky = load_sky_map(path)
-        alt, az = antenna_to_horizon(theta, phi, antenna_azimuth_deg)
-        times = lst_times(lsts, site)
-        t408 = np.empty((lsts.size, theta.size, phi.size), dtype=np.float32)
-        it = range(lsts.size)
-        if progress:
-            from tqdm import tqdm
-
-            it = tqdm(it, desc="sky -> horizon frame", unit="LST")
-        for i in it:
-            l, b = horizon_to_galactic(alt, az, [times[i]], site)
-            t408[i] = hp.get_interp_val(sky, l[0], b[0], lonlat=True)
+        t408 = _compute_horizon_sky(path, theta, phi, lsts, site, antenna_azimuth_deg, progress)
         if use_disk_cache:
-            with atomic_path(file, suffix=".npy.tmp") as tmp:
-                with open(tmp, "wb") as fh:
-                    np.save(fh, t408)
+            _write_sky_cache(file, t408)
     hs = HorizonSky(lsts, theta, phi, t408, key)
     if len(_MEMORY) > 8:
         _MEMORY.clear()
     _MEMORY[key] = hs
     return hs
+
+
+def _compute_horizon_sky(path: Path, theta: np.ndarray, phi: np.ndarray, lsts: np.ndarray, site: Site,
+                         antenna_azimuth_deg: float, progress: bool) -> np.ndarray:
+    """T408 [LST, theta, phi] by transforming every grid direction to Galactic (astropy)
+    and interpolating the map (healpy); minutes for 360 LSTs, hence the disk cache."""
+    import healpy as hp
+
+    sky = load_sky_map(path)
+    alt, az = antenna_to_horizon(theta, phi, antenna_azimuth_deg)
+    times = lst_times(lsts, site)
+    t408 = np.empty((lsts.size, theta.size, phi.size), dtype=np.float32)
+    it = range(lsts.size)
+    if progress:
+        from tqdm import tqdm
+
+        it = tqdm(it, desc="sky -> horizon frame", unit="LST")
+    for i in it:
+        l, b = horizon_to_galactic(alt, az, [times[i]], site)
+        t408[i] = hp.get_interp_val(sky, l[0], b[0], lonlat=True)
+    return t408
+
+
+def _crc(a: np.ndarray) -> int:
+    import zlib
+
+    return zlib.crc32(memoryview(np.ascontiguousarray(a)).cast("B"))
+
+
+def _read_sky_cache(file: Path, shape: tuple[int, ...]) -> np.ndarray | None:
+    """A cached horizon sky if it is whole: right shape, CRC-32 as written, plausible
+    temperatures. Anything else (truncated, overwritten, no checksum) is deleted."""
+    check = file.with_suffix(".crc.json")
+    if not file.exists():
+        return None
+    try:
+        t408 = np.load(file, allow_pickle=False)
+        ok = (t408.shape == shape and t408.dtype == np.float32 and bool(np.all(np.isfinite(t408)))
+              and float(t408.min()) > 0.0 and float(t408.max()) < 1e6)
+        if ok and not check.exists():  # written before checksums: plausible, so adopt it
+            check.write_text(json.dumps({"crc32": _crc(t408), "shape": list(t408.shape)}))
+        ok = ok and json.loads(check.read_text()).get("crc32") == _crc(t408)
+    except (OSError, ValueError, TypeError, AttributeError):
+        ok = False
+    if not ok:
+        file.unlink(missing_ok=True)
+        check.unlink(missing_ok=True)
+        return None
+    return t408
+
+
+def _write_sky_cache(file: Path, t408: np.ndarray) -> None:
+    with atomic_path(file, suffix=".npy.tmp") as tmp:
+        with open(tmp, "wb") as fh:
+            np.save(fh, t408)
+    with atomic_path(file.with_suffix(".crc.json"), suffix=".json.tmp") as tmp:
+        tmp.write_text(json.dumps({"crc32": _crc(t408), "shape": list(t408.shape)}))
