@@ -16,10 +16,10 @@ class BladeDipole:
     the panels span x in [gap/2, gap/2 + length] and its mirror, at z = ``height``.
     """
 
-    # NOTE: SPEC section 1 (corrected) puts 0.964 m along the axis; this model still has
-    # the 1.252 m side along it, as every committed result was computed.
-    panel_length: float = paper.PANEL_ACROSS_AXIS_M
-    panel_width: float = paper.PANEL_ALONG_AXIS_M
+    # SPEC section 1 (corrected): the 0.964 m side runs along the axis (tip to tip 1.972 m);
+    # this orientation gives Table 1's E/H beam widths (72/110 deg at 75 MHz) over PEC.
+    panel_length: float = paper.PANEL_ALONG_AXIS_M
+    panel_width: float = paper.PANEL_ACROSS_AXIS_M
     gap: float = paper.FEED_GAP_M
     height: float = paper.PANEL_HEIGHT_M
 

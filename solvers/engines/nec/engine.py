@@ -12,9 +12,13 @@ static TLS block").
 """
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 
 from groundplane.errors import EngineError, SolveError
+from groundplane.files import atomic_path
 
 from ..base import process_pool, upper_mean_gain
 from .mesh import NecModel
@@ -93,40 +97,99 @@ def context(model: NecModel, freq_mhz: float):
     g = c.get_geometry()
     for w in model.wires:
         g.wire(w.tag, w.n_seg, *w.p1, *w.p2, w.radius, 1.0, 1.0)
+    if model.sections > 1:
+        g.generate_cylindrical_structure(len(model.wires), model.sections)  # GR card
     c.geometry_complete(1)
     if model.ground == "soil":
         c.gn_card(2, 0, model.eps_r, model.sigma, 0, 0, 0, 0)
     else:
         c.gn_card(1, 0, 0, 0, 0, 0, 0, 0)
     c.fr_card(0, 1, float(freq_mhz), 0)
-    c.ex_card(0, model.feed_tag, 1, 0, 1.0, 0, 0, 0, 0, 0)
+    for tag, volts in model.feeds:
+        c.ex_card(0, tag, 1, 0, float(volts), 0, 0, 0, 0, 0)
     return c
 
 
-def radiation_pattern(model: NecModel, freq_mhz: float, n_phi: int) -> np.ndarray:
-    """Linear power gain [theta 0..90, phi 0..n_phi-1] (1-degree steps) at one frequency."""
+def radiation_pattern(model: NecModel, freq_mhz: float, n_phi: int, step: int = 1) -> np.ndarray:
+    """Linear power gain [theta 0..90, phi 0..n_phi-1] (1-degree steps) at one frequency.
+
+    NEC computes the far field every ``step`` degrees (the far-field sum costs as much as
+    the LU at 1 degree); the grid is then interpolated to 1 degree by :func:`to_one_degree`."""
+    n_th = 90 // step + 1
+    n_ph = 90 // step + 1 if n_phi == 91 else 360 // step
     c = context(model, freq_mhz)
-    c.rp_card(0, 91, n_phi, 0, 0, 0, 0, 0.0, 0.0, 1.0, 1.0, 0, 0)
+    c.rp_card(0, n_th, n_ph, 0, 0, 0, 0, 0.0, 0.0, float(step), float(step), 0, 0)
     db = np.asarray(c.get_radiation_pattern(0).get_gain(), dtype=float)
-    if db.shape != (91, n_phi) or not np.all(np.isfinite(db)):
+    if db.shape != (n_th, n_ph) or not np.all(np.isfinite(db)):
         raise SolveError(f"NEC returned a pattern of shape {db.shape} with non-finite values at {freq_mhz} MHz")
     g = 10.0 ** (db / 10.0)
     g[db <= -990] = 0.0  # NEC's "no field" marker (theta = 90 over ground)
-    return g
+    return g if step == 1 else to_one_degree(g, step, quadrant=n_phi == 91)
+
+
+def to_one_degree(g: np.ndarray, step: int, quadrant: bool) -> np.ndarray:
+    """A [theta, phi] gain grid every ``step`` deg -> every 1 deg, by a bicubic
+    interpolating spline (scipy) on the grid padded with its own symmetries, so the
+    ends (zenith, phi = 0/90 or the phi wrap) are interior points of the spline.
+
+    ``quadrant``: phi 0..90 of a pattern symmetric about both vertical planes; else phi
+    0..360-step. Either way G(-theta, phi) = G(theta, phi + 180)."""
+    from scipy.interpolate import RectBivariateSpline
+
+    pad = 3
+    th = np.arange(g.shape[0]) * step
+    ph = np.arange(g.shape[1]) * step
+    if quadrant:  # G(theta, -phi) = G(theta, phi), G(theta, 90 + phi) = G(theta, 90 - phi), G(-theta) = G(theta)
+        gp = np.concatenate([g[:, pad:0:-1], g, g[:, -2:-2 - pad:-1]], axis=1)
+        gp = np.concatenate([gp[pad:0:-1], gp], axis=0)
+        out_phi = np.arange(91.0)
+    else:  # periodic in phi; G(-theta, phi) = G(theta, phi + 180)
+        def wrap(a: np.ndarray) -> np.ndarray:
+            return np.concatenate([a[:, -pad:], a, a[:, :pad]], axis=1)
+
+        gp = wrap(g)
+        gp = np.concatenate([wrap(np.roll(g, -(g.shape[1] // 2), axis=1))[pad:0:-1], gp], axis=0)
+        out_phi = np.arange(360.0)
+    th_p = np.concatenate([-th[pad:0:-1], th])
+    ph_p = np.concatenate([-ph[pad:0:-1] if quadrant else ph[-pad:] - 360.0, ph,
+                           (2 * ph[-1] - ph[-2:-2 - pad:-1]) if quadrant else ph[:pad] + 360.0])
+    spline = RectBivariateSpline(th_p, ph_p, gp, kx=3, ky=3, s=0)
+    return np.clip(spline(np.arange(91.0), out_phi), 0.0, None)
+
+
+def calibration_factor(ref_model: NecModel, freq: float, step: int, store: str | None = None) -> float:
+    """kappa = (mean gain of the blade over PEC over the upper hemisphere) / 2 at ``freq``.
+
+    It depends only on the blade model, frequency and far-field grid, so it is kept in
+    ``store`` (a directory named by those; one small JSON per frequency) and every candidate
+    with the same blade reuses it instead of solving the blade over PEC again."""
+    path = Path(store) / f"{freq:.6f}.json" if store else None
+    if path is not None and path.exists():
+        try:
+            return float(json.loads(path.read_text())["kappa"])
+        except (ValueError, KeyError, TypeError):
+            path.unlink(missing_ok=True)  # damaged: recompute
+    kappa = upper_mean_gain(radiation_pattern(ref_model, freq, 91, step)) / 2.0  # the blade alone: D2-symmetric
+    if path is not None and 0.3 < kappa < 3.0:
+        with atomic_path(path, suffix=".tmp.json") as tmp:
+            tmp.write_text(json.dumps({"freq_mhz": freq, "kappa": kappa}))
+    return kappa
 
 
 def solve_frequency(payload: tuple, freq: float) -> tuple[np.ndarray, dict[str, float]]:
     """Worker job: the calibrated pattern at one frequency and its calibration factor.
 
-    ``payload`` is ``(model, ref_model, n_phi)``: ``ref_model`` is the blade over PEC for
-    the gain calibration, ``model`` itself when the design *is* the blade over PEC (solved
-    once), or None for no calibration."""
-    model, ref_model, n_phi = payload
-    g = radiation_pattern(model, freq, n_phi)
+    ``payload`` is ``(model, ref_model, n_phi, step, store)``: ``ref_model`` is the blade
+    over PEC for the gain calibration, ``model`` itself when the design *is* the blade
+    over PEC (solved once), or None for no calibration; ``store`` keeps calibration factors."""
+    model, ref_model, n_phi, step, store = payload
+    g = radiation_pattern(model, freq, n_phi, step)
     kappa = 1.0
     if ref_model is not None:
-        gp = g if ref_model is model else radiation_pattern(ref_model, freq, n_phi)
-        kappa = upper_mean_gain(gp) / 2.0
+        if ref_model is model:
+            kappa = upper_mean_gain(g) / 2.0
+        else:
+            kappa = calibration_factor(ref_model, freq, step, store)
         if not (0.3 < kappa < 3.0):
             raise SolveError(f"gain calibration factor {kappa:.3f} at {freq} MHz is implausible")
         g = g / kappa

@@ -10,21 +10,32 @@
   over PEC (same blade mesh, same feed); kappa is recorded in the beam metadata.
 * The wire grid leaks power into the soil and its spacing biases the FoM: see
   ``groundplane study mesh-convergence`` and ``results/mesh_convergence.md``.
-* Far field: theta 0-90, phi 0-359 (1 deg). For a candidate mirror-symmetric about both
-  axes only phi 0-90 is computed and mirrored. Below the horizon nothing is returned.
+* Far field: theta 0-90, phi 0-359 at 1 deg, computed by NEC every ``far_field_step``
+  deg (3 by default) and interpolated bicubically (the 1-deg far-field sum cost as much as
+  fill + LU). For a candidate mirror-symmetric about both axes only phi 0-90 is computed
+  and mirrored. Below the horizon nothing is returned.
+* Symmetric candidates are solved as half a model plus NEC's 180-degree rotation (GR):
+  see ``mesh.py``; the blade-over-PEC calibration is solved once per blade model and
+  frequency and kept in the cache (``calibration/``).
 """
 from __future__ import annotations
 
+import hashlib
+import json
+from pathlib import Path
 from typing import ClassVar
 
 from groundplane.design import Design, InfinitePEC
 from groundplane.errors import SolveError
+from groundplane.sky import cache_dir
 
 from ..base import FrequencySolver, Plan, register_engine
 from . import engine
-from .mesh import NecSettings, build_model, pec_reference_model
+from .mesh import NecModel, NecSettings, build_model, pec_reference_model
 
-MODEL_VERSION = 1  # bump when the model changes: the cache key includes it
+MODEL_VERSION = 2  # bump when the model changes: the cache key includes it
+# 2: split feed (two half-gap segments, V/2 each) for the GR symmetry; far field on a coarse
+#    grid interpolated to 1 deg; the blade turned (0.964 m along the axis, SPEC section 1)
 
 
 @register_engine
@@ -52,8 +63,19 @@ class NecSolver(FrequencySolver):
             raise SolveError(f"{design.label()}: could not mesh the model ({exc})") from exc
         symmetric = design.plane is None or all(design.plane.mirror_symmetry.values())
         n_phi = 91 if symmetric else 360
-        ref = None
+        ref, store = None, None
         if self.settings.gain_calibration == "pec":
             ref = model if isinstance(design.ground, InfinitePEC) else pec_reference_model(design, self.settings)
+            if ref is not model and self.use_cache:
+                store = str(self._calibration_store(ref))
         label = f"{design.plane.key() if design.plane else 'PEC'} ({model.n_segments} seg)"
-        return Plan(engine.solve_frequency, (model, ref, n_phi), n_phi, {"n_segments": model.n_segments}, label)
+        payload = (model, ref, n_phi, self.settings.far_field_step, store)
+        meta = {"n_segments": model.n_segments, "rotational_symmetry_sections": model.sections}
+        return Plan(engine.solve_frequency, payload, n_phi, meta, label)
+
+    def _calibration_store(self, ref: NecModel) -> Path:
+        """Where the blade-over-PEC calibration of this blade model is kept (by content)."""
+        ident = {"model_version": MODEL_VERSION, "engine": self.engine_identity(), "deck": ref.to_deck([1.0]),
+                 "far_field_step": self.settings.far_field_step}
+        key = hashlib.sha256(json.dumps(ident, sort_keys=True).encode()).hexdigest()[:32]
+        return cache_dir() / "calibration" / key

@@ -71,3 +71,45 @@ def test_graded_plate_mesh_is_finer_under_the_antenna_and_valid():
     with pytest.raises(ValueError, match="FACTOR"):
         NecSettings(refine_centre=(1.0, 0))
 
+
+
+def test_rotational_fold_halves_the_model_and_drives_the_split_feed_both_ways():
+    from groundplane.design import Design, InfinitePEC, Soil
+    from solvers.engines.nec import build_model
+    from solvers.engines.nec.mesh import fold_rotation
+
+    full = build_model(Design(PRESETS["sawtooth-10-8"], Soil()), NecSettings(spacing=1.0, rotational_symmetry=False))
+    half = build_model(Design(PRESETS["sawtooth-10-8"], Soil()), NecSettings(spacing=1.0))
+    assert full.sections == 1 and half.sections == 2
+    assert 2 * len(half.wires) == len(full.wires) and half.n_segments == full.n_segments
+    # the two half-gap feed segments: one kept (+V/2), its rotated copy runs the other way (-V/2)
+    (t1, v1), (t2, v2) = sorted(half.feeds)
+    assert v1 == 0.5 and v2 == -0.5 and t2 == t1 + len(half.wires)
+    deck = half.to_deck([50.0, 51.0])
+    assert f"GR {len(half.wires)} 2" in deck and deck.count("\nEX 0 ") == 2
+    # every wire of the full model is a kept wire or the 180-degree image of one
+    ends = {frozenset((tuple(np.round(w.p1, 6)), tuple(np.round(w.p2, 6)))) for w in full.wires}
+    made = set()
+    for w in half.wires:
+        for s in (1, -1):
+            made.add(frozenset((tuple(np.round([s * w.p1[0], s * w.p1[1], w.p1[2]], 6) + 0.0),
+                                tuple(np.round([s * w.p2[0], s * w.p2[1], w.p2[2]], 6) + 0.0))))
+    assert made == ends
+    # the blade over PEC folds too; a model without the symmetry does not
+    assert build_model(Design(None, InfinitePEC()), NecSettings()).sections == 2
+    full.wires.append(type(full.wires[0])(len(full.wires) + 1, 1, (3.0, 0.2, 0.05), (3.0, 0.7, 0.05), 0.01))
+    assert fold_rotation(full) is None
+
+
+def test_far_field_interpolation_to_one_degree():
+    """NEC's far field on a 3-degree grid, splined to 1 degree: a smooth dipole-like
+    pattern comes back to 1e-5, on the quadrant and on the full circle."""
+    from solvers.engines.nec.engine import to_one_degree
+
+    t, p = np.meshgrid(np.radians(np.arange(91.0)), np.radians(np.arange(360.0)), indexing="ij")
+    g = (1 - np.sin(t) ** 2 * np.cos(p) ** 2) * np.cos(t) ** 2 * (1 + 0.2 * np.sin(t) ** 2 * np.cos(2 * p))
+    assert np.abs(to_one_degree(g[::3, 0:91:3], 3, quadrant=True) - g[:, :91]).max() < 1e-5
+    g_asym = g * (1 + 0.1 * np.sin(t) * np.cos(p))
+    assert np.abs(to_one_degree(g_asym[::3, ::3], 3, quadrant=False) - g_asym).max() < 1e-5
+    with pytest.raises(Exception, match="far_field_step"):
+        NecSettings(far_field_step=4)

@@ -14,25 +14,31 @@ from solvers.engines.nec import (
 )
 
 
-def test_average_gain_over_pec_is_two_with_a_fine_blade():
-    """NEC's own input power, no calibration: a fine blade grid gives mean gain 2 within 2 %."""
+def test_uncalibrated_gain_over_pec_is_frequency_flat():
+    """NEC's own input power, no calibration: the split feed (two 2.2 cm half-gap segments)
+    reads the mean gain over PEC ~8 % low (1.83 instead of 2), the same at every frequency
+    to 1 % -- which is what the blade-over-PEC calibration divides out."""
     mesh = NecSettings(blade_cells=(24, 18), gain_calibration="none")
-    beam = NecSolver(mesh, workers=1, progress=False, use_cache=False).solve(Design(None, InfinitePEC()), [75.0])
+    beam = NecSolver(mesh, workers=1, progress=False, use_cache=False).solve(Design(None, InfinitePEC()), [60.0, 90.0])
     w = beam.solid_angle_weights()
-    mean = (beam.gain[0] * w).sum() / w.sum()
-    assert mean == pytest.approx(2.0, rel=0.02)
+    mean = (beam.gain * w).sum((1, 2)) / w.sum()
+    assert np.all((mean > 1.75) & (mean < 2.02))
+    assert mean.max() / mean.min() < 1.01
+
 
 def test_pec_calibration_factor_and_beam_widths():
+    from groundplane import paper
+
     d = Design(None, InfinitePEC())
     coarse = NecSolver(workers=1, progress=False, use_cache=False).solve(d, [60.0, 90.0])
     w = coarse.solid_angle_weights()
     assert np.allclose((coarse.gain * w).sum((1, 2)) / w.sum(), 2.0, rtol=1e-3)
     kappa = coarse.meta["gain_calibration_kappa"]
-    assert all(0.85 < k < 0.97 for k in kappa)  # the uncalibrated feed reads 3-15 % low
-    # beam widths at 75 MHz close to NOTES.md's Fortran-checked 63.6 / 113.2 deg
+    assert all(0.80 < k < 0.90 for k in kappa)  # the uncalibrated split feed reads 10-20 % low
+    # the turned blade (0.964 m along the axis) gives Table 1's widths at 75 MHz
     b75 = NecSolver(workers=1, progress=False, use_cache=False).solve(d, [75.0])
-    assert b75.beam_width_3db(75, 0) == pytest.approx(63.6, abs=1.0)
-    assert b75.beam_width_3db(75, 90) == pytest.approx(113.2, abs=1.0)
+    assert b75.beam_width_3db(75, 0) == pytest.approx(paper.BEAM_WIDTH_E_DEG, abs=1.5)
+    assert b75.beam_width_3db(75, 90) == pytest.approx(paper.BEAM_WIDTH_H_DEG, abs=1.5)
     assert np.all(b75.gain[:, 90, :] == 0)  # nothing at or below the horizon
 
 def test_soil_solve_cache_and_resume(tmp_path, monkeypatch):
@@ -64,3 +70,29 @@ def test_failed_solve_names_candidate_and_caches_nothing(tmp_path, monkeypatch):
         NecSolver(NecSettings(spacing=1.0), workers=0, progress=False).solve(d, [60.0])
     assert not list((tmp_path / "beams").glob("*.npz"))
 
+
+
+@pytest.mark.parametrize("design", [Design(None, InfinitePEC()), Design(Square(3.0), Soil())], ids=["pec", "soil"])
+def test_half_model_with_rotation_matches_the_full_model(design):
+    """NEC's GR symmetry (half the model, rotated) gives the full model's calibrated
+    pattern within 1e-3 dB, over PEC and over soil; both at the 1-degree far field."""
+    freqs = [50.0, 85.0]
+    beams = [NecSolver(NecSettings(spacing=1.0, rotational_symmetry=sym, far_field_step=1), workers=1,
+                       progress=False, use_cache=False).solve(design, freqs) for sym in (True, False)]
+    assert beams[0].meta["rotational_symmetry_sections"] == 2 and beams[1].meta["rotational_symmetry_sections"] == 1
+    ok = beams[1].gain > 1e-6 * beams[1].gain.max()
+    assert np.abs(10 * np.log10(beams[0].gain[ok] / beams[1].gain[ok])).max() < 1e-3
+
+
+def test_calibration_is_solved_once_per_blade_and_frequency(tmp_path, monkeypatch):
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path))
+    solver = NecSolver(NecSettings(spacing=1.0), workers=1, progress=False)
+    a = solver.solve(Design(Square(2.0), Soil()), [60.0])
+    stores = list((tmp_path / "calibration").glob("*/60.000000.json"))
+    assert len(stores) == 1
+    stores[0].write_text('{"freq_mhz": 60.0, "kappa": 0.5}')  # a marked value: reused if read
+    b = solver.solve(Design(Square(3.0), Soil()), [60.0])
+    assert b.meta["gain_calibration_kappa"] == [0.5] and a.meta["gain_calibration_kappa"] != [0.5]
+    stores[0].write_text("not json")  # damaged: recomputed, not trusted
+    c = solver.solve(Design(Square(4.0), Soil()), [60.0])
+    assert c.meta["gain_calibration_kappa"] == pytest.approx(a.meta["gain_calibration_kappa"], rel=1e-9)
