@@ -51,6 +51,11 @@ def _run_sweep_cmd(args: argparse.Namespace) -> int:
                          preamble=f"Command: `{invocation()}`. Settings: {settings.describe()}.")
     print(summary_table(rows))
     print(f"report: {paths['md']}")
+    failed = [r["name"] for r in rows if r.get("status") == "failed"]
+    if failed:
+        print(f"sweep: {len(failed)} candidate(s) failed ({', '.join(failed[:5])}{' ...' if len(failed) > 5 else ''}); "
+              "their errors are in the report; rerun with --retry-failed to solve them again", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -23,7 +23,8 @@ def _calibrated_band(model, freqs) -> np.ndarray:
     from solvers.engines.base import mirror_quadrant
     from solvers.engines.nec.engine import solve_frequency
 
-    return mirror_quadrant(np.stack([solve_frequency((model, model, 91), float(f))[0] for f in freqs]))
+    step = NecSettings().far_field_step
+    return mirror_quadrant(np.stack([solve_frequency((model, model, 91, step, None), float(f))[0] for f in freqs]))
 
 
 def blade_over_pec(out: Path, command: str) -> None:
@@ -50,7 +51,10 @@ def blade_over_pec(out: Path, command: str) -> None:
         beam, _ = solve(pec, NecSettings(blade_cells=cells))
         row(f"{cells[0]} x {cells[1]} blade", beam)
     model = pec_reference_model(pec, NecSettings())
-    for sign in (1.0, -1.0):  # the tubes join the panels' inner edges at the feed
+    # the tubes join the panels' inner edges at the feed; the model is folded (half plus
+    # NEC's 180-degree rotation), so the tube at +gap/2 brings its image at -gap/2 with it
+    tubes = [1.0] if model.sections == 2 else [1.0, -1.0]
+    for sign in tubes:
         x = sign * pec.antenna.gap / 2
         model.add((x, 0.0, 0.0), (x, 0.0, pec.antenna.height), 0.01, 10)
     from groundplane.beam import Beam

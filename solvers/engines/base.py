@@ -8,6 +8,7 @@ import json
 import os
 import time
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from typing import Any, Callable, ClassVar, Iterable, Protocol, runtime_checkable
 
@@ -72,18 +73,43 @@ def make_solver(engine: str, settings: Any = None, **runtime: Any) -> Solver:
     return cls(settings if settings is not None else cls.settings_class(), **runtime)
 
 
-def worker_init() -> None:
-    """One BLAS/OpenMP thread per worker: frequencies run in parallel processes instead."""
+def worker_init(parent_pid: int | None = None) -> None:
+    """One BLAS/OpenMP thread per worker (frequencies run in parallel processes instead),
+    and a worker that dies with its parent: a ``kill -9`` of a sweep must not leave NEC
+    workers running for hours with nobody to read their results."""
     os.environ["OMP_NUM_THREADS"] = "1"
     os.environ["OPENBLAS_NUM_THREADS"] = "1"
+    if parent_pid is not None:
+        _die_with_parent(parent_pid)
+
+
+def _die_with_parent(parent_pid: int) -> None:
+    import signal
+    import sys
+    import threading
+
+    if sys.platform.startswith("linux"):  # the kernel kills us when the parent goes (no library does this)
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    if os.getppid() != parent_pid:  # the parent died before we got here
+        os._exit(1)
+
+    def watch() -> None:  # elsewhere (and as a backstop): poll for re-parenting
+        while os.getppid() == parent_pid:
+            time.sleep(1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True, name="die-with-parent").start()
 
 
 def process_pool(workers: int) -> ProcessPoolExecutor:
     """Spawned worker processes (engines bundle their own OpenMP runtimes, which must not
-    share a process with healpy's)."""
+    share a process with healpy's) that die with this process."""
     import multiprocessing as mp
 
-    return ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"), initializer=worker_init)
+    return ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"), initializer=worker_init,
+                               initargs=(os.getpid(),))
 
 
 def mirror_quadrant(q: np.ndarray) -> np.ndarray:
@@ -195,28 +221,51 @@ class FrequencySolver:
         return beam
 
     def _run(self, plan: Plan, todo: list[float], design: Design, n_total: int):
-        """Yield (freq, gain, extras, seconds) as frequencies finish (saved one by one)."""
+        """Yield (freq, gain, extras, seconds) as frequencies finish (saved one by one).
+
+        A worker that dies (the OOM killer, a kill) breaks the pool; what finished is kept
+        and the rest is tried once more in a fresh pool before the solve is called failed."""
         bar = None
         if self.progress:
             from tqdm import tqdm
 
             bar = tqdm(total=n_total, initial=n_total - len(todo), unit="freq", desc=f"{self.name} {plan.label}")
-        pool = process_pool(self.workers) if self.workers >= 1 and todo else None
-        jobs = [(plan.job, plan.payload, f) for f in todo]
+        left = list(todo)
         try:
-            for out in (pool.map(_timed, jobs) if pool else map(_timed, jobs)):
-                if bar:
-                    bar.update(1)
-                yield out
+            for attempt in (1, 2):
+                try:
+                    for out in self._attempt(plan, left):
+                        left.remove(out[0])
+                        if bar:
+                            bar.update(1)
+                        yield out
+                    return
+                except BrokenProcessPool as exc:
+                    if attempt == 2:
+                        raise SolveError(f"{design.label()}: a {self.name} worker process died twice "
+                                         f"({len(left)} frequencies unsolved; out of memory?)") from exc
+                    import sys
+
+                    print(f"{design.label()}: a {self.name} worker process died; retrying the {len(left)} "
+                          "unsolved frequencies once", file=sys.stderr)
+        except SolveError:
+            raise
         except SolverError as exc:
             raise SolveError(f"{design.label()}: {exc}") from exc
         except Exception as exc:  # the engine's own failure, in a worker: name the candidate
             raise SolveError(f"{design.label()}: {self.name} solve failed ({type(exc).__name__}: {exc})") from exc
         finally:
-            if pool is not None:
-                pool.shutdown(cancel_futures=True)
             if bar:
                 bar.close()
+
+    def _attempt(self, plan: Plan, todo: list[float]):
+        pool = process_pool(self.workers) if self.workers >= 1 and todo else None
+        jobs = [(plan.job, plan.payload, f) for f in todo]
+        try:
+            yield from (pool.map(_timed, jobs) if pool else map(_timed, jobs))
+        finally:
+            if pool is not None:
+                pool.shutdown(cancel_futures=True)
 
     def _assemble(self, design: Design, freqs: np.ndarray, plan: Plan, results: dict, key: str) -> Beam:
         gains = np.stack([results[float(f)][0] for f in freqs])

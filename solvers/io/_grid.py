@@ -11,6 +11,18 @@ from groundplane.beam import Beam, BeamFormatError
 
 _ANGLE_DECIMALS = 6
 UNIT_SCALE_TO_MHZ = {"ghz": 1e3, "mhz": 1.0, "khz": 1e-3, "hz": 1e-6}
+PLAUSIBLE_MHZ = (0.1, 1e5)  # 100 kHz - 100 GHz: outside it, a unit is wrong (MHz read as Hz ...)
+
+
+def check_frequency(f_mhz: float, where_: str) -> float:
+    """Refuse a frequency no antenna export has: a file whose unit is wrong would otherwise
+    be scored as a beam at 4e-5 MHz or 4e7 MHz."""
+    lo, hi = PLAUSIBLE_MHZ
+    if not (lo <= f_mhz <= hi):
+        raise BeamFormatError(
+            f"{where_}: implausible frequency {f_mhz:g} MHz (expected {lo:g} MHz to {hi:g} MHz); is its unit "
+            "wrong in the file (MHz written where Hz is declared, or the reverse)?")
+    return f_mhz
 
 
 def where(path: str | Path, line: int | None = None) -> str:
@@ -52,6 +64,8 @@ def samples_to_grid(
         raise BeamFormatError(f"{source}: non-finite gain at theta {theta[i]}, phi {phi[i]}")
     tg, ti = np.unique(theta, return_inverse=True)
     pg, pi = np.unique(phi, return_inverse=True)
+    for name, g in (("theta", tg), ("phi", pg)):
+        _check_even(g, name, source)
     # At theta = 0 or 180 every phi is the same direction: fill missing phi there.
     grid = np.full((tg.size, pg.size), np.nan)
     count = np.zeros((tg.size, pg.size), dtype=int)
@@ -89,6 +103,27 @@ def samples_to_grid(
     return tg, pg, grid
 
 
+def _check_even(g: np.ndarray, name: str, source: str) -> None:
+    """Angles must be evenly spaced, so a missing cut is not taken for a coarser step. phi
+    is circular and may leave out one wide range (a quadrant export, stitched later): one
+    gap of at least 45 deg and 4 steps; any other irregularity is refused."""
+    if g.size < 3:
+        return
+    d = np.diff(g)
+    if name == "phi":
+        d = np.append(d, g[0] + 360.0 - g[-1])
+    step = float(np.min(d))
+    off = np.flatnonzero(np.abs(d - step) > 1e-3)
+    if name == "phi" and off.size == 1 and d[off[0]] >= max(45.0, 4 * step):
+        return
+    if off.size:
+        k = int(off[0])
+        nxt = g[(k + 1) % g.size] + (360.0 if k + 1 == g.size else 0.0)
+        raise BeamFormatError(
+            f"{source}: uneven {name} grid: steps of {step:g} deg but {g[k]:g} -> {nxt:g} deg "
+            f"({name} value(s) missing there?)")
+
+
 def assemble(
     freqs_mhz: list[float],
     grids: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
@@ -106,6 +141,8 @@ def assemble(
                 f"{freqs_mhz[0]:g} MHz ({t0.size} x {p0.size})"
             )
     f = np.asarray(freqs_mhz, dtype=float)
+    for x in f:
+        check_frequency(float(x), source)
     if np.unique(f).size != f.size:
         raise BeamFormatError(f"{source}: a frequency is listed twice: {sorted(f.tolist())}")
     order = np.argsort(f)

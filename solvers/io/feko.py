@@ -11,7 +11,7 @@ import numpy as np
 from groundplane.beam import Beam, BeamFormatError
 
 from . import BeamFormat, head_lines, register_format
-from ._grid import assemble, db_to_linear, merge_phi, samples_to_grid, where
+from ._grid import assemble, check_frequency, db_to_linear, merge_phi, samples_to_grid, where
 
 _GAIN_COLUMNS = ("Gain(Total)", "Realized Gain(Total)", "Directivity(Total)")
 
@@ -58,6 +58,7 @@ def read_ffe(path: str | Path) -> Beam:
                         f_hz = float(body.split(":", 1)[1])
                     except ValueError:
                         raise BeamFormatError(f"{where(path, lineno)}: unreadable frequency '{body}'") from None
+                    check_frequency(f_hz / 1e6, where(path, lineno))  # '#Frequency:' is in Hz
                     cur = {"freq_mhz": f_hz / 1e6, "rows": [], "columns": None, "n_theta": None,
                            "n_phi": None, "start": lineno, "result": None}
                 elif cur is not None and body.lower().startswith("no. of theta samples:"):

@@ -124,3 +124,16 @@ def test_config_and_cli_take_plate_height_and_a_finer_centre(tmp_path):
                                       "--refine-centre", "2", "2.5"])
     with pytest.raises(ConfigError, match="whole number"):
         eval_settings(args)
+
+
+def test_sweep_exits_non_zero_when_a_candidate_failed(tmp_path, monkeypatch, capsys):
+    from groundplane.cli import main
+
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path / "cache"))
+    hb = Beam.load(EXAMPLE_BEAM)
+    f = np.arange(55.0, 80.0, 6.0)  # stops short of the 55-97 MHz fit band: cannot be scored
+    Beam(f, hb.theta_deg, hb.phi_deg, np.repeat(hb.gain[:1], f.size, axis=0)).save(tmp_path / "short.npz")
+    cfg = write_cfg(tmp_path, "[[candidate]]\nname = 'short'\nbeam = 'short.npz'\nmetal_area_m2 = 4\n")
+    assert main(["sweep", str(cfg), "-o", str(tmp_path / "out")]) == 1
+    err = capsys.readouterr().err
+    assert "1 candidate(s) failed (short)" in err and "--retry-failed" in err

@@ -105,7 +105,7 @@ def context(model: NecModel, freq_mhz: float):
     else:
         c.gn_card(1, 0, 0, 0, 0, 0, 0, 0)
     c.fr_card(0, 1, float(freq_mhz), 0)
-    for tag, volts in model.feeds:
+    for tag, volts in model.sources():
         c.ex_card(0, tag, 1, 0, float(volts), 0, 0, 0, 0, 0)
     return c
 

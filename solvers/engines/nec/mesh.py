@@ -130,11 +130,12 @@ class NecModel:
 
     With ``sections == 2`` the wires are one half of the structure and NEC adds the other
     half rotated 180 deg about z (GR card; the copy of tag t is tag t + ``len(wires)``).
-    ``feeds`` are (tag, volts) voltage sources on a wire's first segment.
+    ``feeds`` are (tag, volts, copy) voltage sources on a wire's first segment; ``copy``
+    marks a source on NEC's rotated copy of wire ``tag`` (see :meth:`sources`).
     """
 
     wires: list[Wire] = field(default_factory=list)
-    feeds: list[tuple[int, float]] = field(default_factory=list)
+    feeds: list[tuple[int, float, bool]] = field(default_factory=list)
     ground: str = "soil"  # "soil" | "pec"
     eps_r: float = 3.5
     sigma: float = 0.02
@@ -143,6 +144,11 @@ class NecModel:
     @property
     def n_segments(self) -> int:
         return self.sections * sum(w.n_seg for w in self.wires)
+
+    def sources(self) -> list[tuple[int, float]]:
+        """(NEC tag, volts) of every source; a copy's tag is the original's plus the number
+        of wires (GR's tag increment), so wires added after folding keep it right."""
+        return [(tag + (len(self.wires) if copy else 0), volts) for tag, volts, copy in self.feeds]
 
     def add(self, p1: Sequence[float], p2: Sequence[float], radius: float, n_seg: int = 1) -> int:
         tag = len(self.wires) + 1
@@ -163,7 +169,7 @@ class NecModel:
         f = np.asarray(freqs_mhz, dtype=float)
         step = float(f[1] - f[0]) if f.size > 1 else 0.0
         lines.append(f"FR 0 {f.size} 0 0 {f[0]:g} {step:g}")
-        lines += [f"EX 0 {tag} 1 0 {volts:g} 0" for tag, volts in self.feeds]
+        lines += [f"EX 0 {tag} 1 0 {volts:g} 0" for tag, volts in self.sources()]
         lines.append("RP 0 91 360 1000 0 0 1 1")
         lines.append("EN")
         return "\n".join(lines) + "\n"
@@ -183,7 +189,7 @@ def add_blade(model: NecModel, antenna: BladeDipole, z: float, settings: NecSett
             for i in range(nx):
                 model.add((xs[i], y, z), (xs[i + 1], y, z), r)
     for x0, x1 in ((-antenna.gap / 2, 0.0), (0.0, antenna.gap / 2)):
-        model.feeds.append((model.add((x0, 0.0, z), (x1, 0.0, z), r), 0.5))
+        model.feeds.append((model.add((x0, 0.0, z), (x1, 0.0, z), r), 0.5, False))
 
 
 def _rounded(p: Sequence[float]) -> tuple[float, ...]:
@@ -217,14 +223,14 @@ def fold_rotation(model: NecModel) -> NecModel | None:
             new_tag[i] = half.add(w.p1, w.p2, w.radius, w.n_seg)
     if 2 * len(half.wires) != len(model.wires):
         return None
-    for tag, volts in model.feeds:
+    for tag, volts, _ in model.feeds:
         i = tag - 1
         if i in new_tag:
-            half.feeds.append((new_tag[i], volts))
+            half.feeds.append((new_tag[i], volts, False))
             continue
         k = model.wires[image[i]]  # NEC's copy of k runs rot(k.p1) -> rot(k.p2)
         same_way = _rounded(rot(k.p1)) == _rounded(model.wires[i].p1)
-        half.feeds.append((new_tag[image[i]] + len(half.wires), volts if same_way else -volts))
+        half.feeds.append((new_tag[image[i]], volts if same_way else -volts, True))
     return half
 
 

@@ -29,13 +29,13 @@ def test_ffe_quadrants_with_disagreeing_overlap(tmp_path):
     bad = []
     for line in text:
         parts = line.split()
-        if parts and not line.startswith("#") and float(parts[1]) == 91.0:
+        if parts and not line.startswith("#") and float(parts[1]) == 91.0:  # add a phi 90 cut 3 dB off
             parts[1] = "9.00000000E+01"
             parts[-1] = str(float(parts[-1]) + 3.0)
-            line = "  ".join(parts)
+            bad.append("  ".join(parts))
         bad.append(line)
     p = tmp_path / "q2.ffe"
-    p.write_text("\n".join(bad))
+    p.write_text("\n".join(bad).replace("#No. of Phi Samples: 90", "#No. of Phi Samples: 91"))
     with pytest.raises(BeamFormatError, match="listed 2 times"):
         load_beam([paths[0], p])
 

@@ -29,9 +29,31 @@ def test_hfss_malformed(tmp_path):
     with pytest.raises(BeamFormatError, match=r"h\.csv:8: expected 4 fields"):
         load_beam(p)
     p.write_text("\n".join(lines[:90]))
-    with pytest.raises(BeamFormatError, match="incomplete angular grid"):
+    with pytest.raises(BeamFormatError, match="incomplete angular grid|uneven phi grid"):
         load_beam(p)
     p.write_text("\n".join(lines[:200]))
-    with pytest.raises(BeamFormatError, match="grid at 75 MHz .* differs from the one at 50 MHz"):
+    with pytest.raises(BeamFormatError, match="grid at 75 MHz .* differs from the one at 50 MHz|75 MHz: uneven phi grid"):
         load_beam(p)
 
+
+
+def test_implausible_frequency_units_and_missing_cuts_are_refused(tmp_path):
+    lines = (DATA / "hfss_gain.csv").read_text().splitlines()
+    p = tmp_path / "h.csv"
+    p.write_text("\n".join([lines[0].replace("Freq [MHz]", "Freq [Hz]")] + lines[1:]))  # mislabelled unit
+    with pytest.raises(BeamFormatError, match=r"h\.csv.*implausible frequency 5e-05 MHz"):
+        load_beam(p)
+    # drop the phi = 60 deg cut: not a coarser grid, a missing cut
+    p.write_text("\n".join([lines[0]] + [l for l in lines[1:] if l.split(",")[1] != "60"]))
+    with pytest.raises(BeamFormatError, match=r"uneven phi grid: steps of 30 deg but 30 -> 90 deg"):
+        load_beam(p)
+
+
+def test_feko_frequency_in_mhz_instead_of_hz_names_the_line(tmp_path):
+    from tests.conftest import quadrant_paths
+
+    src = quadrant_paths()[0]
+    p = tmp_path / "q.ffe"
+    p.write_text(src.read_text().replace("#Frequency: 4.00000000E+07", "#Frequency: 40"))
+    with pytest.raises(BeamFormatError, match=r"q\.ffe:4: implausible frequency 4e-05 MHz"):
+        load_beam(p)

@@ -83,7 +83,7 @@ def test_rotational_fold_halves_the_model_and_drives_the_split_feed_both_ways():
     assert full.sections == 1 and half.sections == 2
     assert 2 * len(half.wires) == len(full.wires) and half.n_segments == full.n_segments
     # the two half-gap feed segments: one kept (+V/2), its rotated copy runs the other way (-V/2)
-    (t1, v1), (t2, v2) = sorted(half.feeds)
+    (t1, v1), (t2, v2) = sorted(half.sources())
     assert v1 == 0.5 and v2 == -0.5 and t2 == t1 + len(half.wires)
     deck = half.to_deck([50.0, 51.0])
     assert f"GR {len(half.wires)} 2" in deck and deck.count("\nEX 0 ") == 2

@@ -1,0 +1,102 @@
+"""Engine worker processes: they die with their parent, and a worker killed mid-solve
+(as the OOM killer would) costs a retry, not the candidate. Real processes, real kills."""
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from groundplane.design import Design, Soil
+from groundplane.errors import SolveError
+from groundplane.shapes import Square
+from solvers.engines.base import FrequencySolver, Plan
+
+ROOT = Path(__file__).resolve().parents[3]
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    state = Path(f"/proc/{pid}/stat").read_text().split()[2] if Path(f"/proc/{pid}/stat").exists() else "X"
+    return state not in ("Z", "X")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_workers_die_when_the_parent_is_killed(tmp_path):
+    script = textwrap.dedent(f"""
+        import os, sys, time
+        sys.path.insert(0, {str(ROOT)!r})
+        from solvers.engines.base import process_pool
+        from tests.solvers.engines.test_workers import sleeper
+        pool = process_pool(2)
+        futs = [pool.submit(sleeper, {str(tmp_path)!r}) for _ in range(2)]
+        time.sleep(600)
+    """)
+    parent = subprocess.Popen([sys.executable, "-c", script], cwd=ROOT)
+    try:
+        deadline = time.time() + 60
+        while len(list(tmp_path.glob("*.pid"))) < 2 and time.time() < deadline:
+            time.sleep(0.2)
+        pids = [int(p.read_text()) for p in tmp_path.glob("*.pid")]
+        assert len(pids) == 2 and all(_alive(p) for p in pids)
+        parent.send_signal(signal.SIGKILL)
+        parent.wait()
+        deadline = time.time() + 10
+        while any(_alive(p) for p in pids) and time.time() < deadline:
+            time.sleep(0.2)
+        assert not any(_alive(p) for p in pids), "workers outlived their killed parent"
+    finally:
+        parent.kill()
+
+
+def sleeper(folder: str) -> None:
+    """Worker job: say who we are, then work for a long time."""
+    Path(folder, f"{os.getpid()}.pid").write_text(str(os.getpid()))
+    time.sleep(300)
+
+
+def dies_once(payload: str, freq: float):
+    """Worker job: the first time 60 MHz is solved, the worker is killed outright."""
+    marker = Path(payload) / "killed"
+    if freq == 60.0 and not marker.exists():
+        marker.write_text("1")
+        os.kill(os.getpid(), signal.SIGKILL)
+    return np.full((91, 91), freq), {}
+
+
+def always_dies(payload: str, freq: float):
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+class StandIn(FrequencySolver):
+    name = "stand-in"
+
+    def __init__(self, job, folder, **kw):
+        super().__init__(None, **kw)
+        self.job, self.folder = job, folder
+
+    def engine_identity(self):
+        return {"engine": "stand-in"}
+
+    def plan(self, design):
+        return Plan(self.job, str(self.folder), 91, {}, "stand-in")
+
+
+def test_a_killed_worker_is_retried_once(tmp_path):
+    solver = StandIn(dies_once, tmp_path, workers=2, use_cache=False)
+    solver.settings_class = object
+    solver.settings = type("S", (), {"as_dict": lambda self: {}})()
+    beam = solver.solve(Design(Square(2.0), Soil()), [50.0, 60.0, 70.0])
+    assert (tmp_path / "killed").exists()
+    assert np.allclose(beam.gain[:, 0, 0], [50.0, 60.0, 70.0])
+    solver = StandIn(always_dies, tmp_path, workers=1, use_cache=False)
+    solver.settings = type("S", (), {"as_dict": lambda self: {}})()
+    with pytest.raises(SolveError, match=r"Square\(side=2.0\).*worker process died twice"):
+        solver.solve(Design(Square(2.0), Soil()), [50.0])
