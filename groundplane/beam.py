@@ -204,6 +204,7 @@ class Beam:
         if path.is_dir():
             raise BeamFormatError(f"{path}: is a directory, not a beam file")
         try:
+            _check_npz_sizes(path)
             with np.load(path, allow_pickle=False) as z:
                 missing = {"freqs_mhz", "theta_deg", "phi_deg", "gain"} - set(z.files)
                 if missing:
@@ -273,3 +274,27 @@ def _json_default(obj: Any) -> Any:
     if isinstance(obj, Path):
         return str(obj)
     raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+def _check_npz_sizes(path: Path) -> None:
+    """Read each array's header and refuse one that declares more data than the file
+    holds (a damaged or hostile file would otherwise make numpy allocate gigabytes first)."""
+    import zipfile
+
+    from numpy.lib import format as npy
+
+    with zipfile.ZipFile(path) as zf:
+        for info in zf.infolist():
+            if not info.filename.endswith(".npy"):
+                continue
+            with zf.open(info) as fh:
+                version = npy.read_magic(fh)
+                read = npy.read_array_header_1_0 if version == (1, 0) else npy.read_array_header_2_0
+                shape, _, dtype = read(fh)
+            if dtype.hasobject:
+                raise BeamFormatError(f"{path}: array '{info.filename[:-4]}' holds Python objects; refused (never unpickled)")
+            nbytes = int(np.prod(shape, dtype=np.float64)) * dtype.itemsize
+            if nbytes > info.file_size:
+                raise BeamFormatError(
+                    f"{path}: array '{info.filename[:-4]}' declares shape {tuple(shape)} ({nbytes:,} bytes) but the "
+                    f"file holds {info.file_size:,} bytes for it; damaged or not a beam")

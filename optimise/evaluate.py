@@ -64,6 +64,17 @@ class EvalSettings:
     workers: int = 2
     engine: str = "nec"
 
+    def check_scorable(self) -> None:
+        """Refuse, before any solve, frequencies that the FoM could not score (they miss the
+        fit band or hold too few points in it for the fit)."""
+        from groundplane.fom import fit_band_mask
+
+        try:
+            fit_band_mask(np.asarray(self.freqs_mhz, dtype=float), self.fom.fit_band_mhz, self.fom.n_terms)
+        except UserInputError as exc:
+            raise UserInputError(f"--freqs {self.freqs_mhz[0]:g}-{self.freqs_mhz[-1]:g} MHz cannot be scored: "
+                                 f"{exc}") from None
+
     def solver_settings(self) -> Any:
         return self.solver if self.solver is not None else ENGINES[self.engine].settings_class()
 

@@ -150,6 +150,7 @@ def optimise(
                              f"{', '.join(CONSTRAINED_ALGORITHMS)}")
     if budget < 1:
         raise UserInputError("--budget must be >= 1 evaluation")
+    settings.check_scorable()
     fam = family(shape)
     ints: tuple = tuple(integer_values) if integer_values else (fam.integer_values or (None,))
     out = Path(out_dir)

@@ -178,6 +178,8 @@ def run_sweep(
     retry_failed: bool = False,
 ) -> list[dict[str, Any]]:
     """Evaluate every candidate not already in ``out_dir``; return all rows (this sweep's)."""
+    if any(c.plane is not None for c in candidates):
+        settings.check_scorable()
     store = ResultStore(out_dir)
     done = store.rows()
     keys = {c.name: row_key(c, settings) for c in candidates}

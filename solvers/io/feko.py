@@ -35,6 +35,13 @@ def read_ffe(path: str | Path) -> Beam:
     def close(block: dict | None, lineno: int) -> None:
         if block is None:
             return
+        if block["columns"] is None:
+            raise BeamFormatError(f"{where(path, lineno)}: the block at {block['freq_mhz']:g} MHz (starting line "
+                                  f"{block['start']}) has no column-name line; truncated, or not a FEKO export")
+        for c in ("Theta", "Phi"):
+            if c not in block["columns"]:
+                raise BeamFormatError(f"{where(path, block['start'])}: no '{c}' column in the block at "
+                                      f"{block['freq_mhz']:g} MHz (found {', '.join(block['columns'])})")
         rows = np.asarray(block["rows"], dtype=float).reshape(-1, len(block["columns"]))
         n_expected = block["n_theta"] * block["n_phi"] if block["n_theta"] and block["n_phi"] else None
         if n_expected is not None and rows.shape[0] != n_expected:

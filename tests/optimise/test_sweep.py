@@ -137,3 +137,16 @@ def test_sweep_exits_non_zero_when_a_candidate_failed(tmp_path, monkeypatch, cap
     assert main(["sweep", str(cfg), "-o", str(tmp_path / "out")]) == 1
     err = capsys.readouterr().err
     assert "1 candidate(s) failed (short)" in err and "--retry-failed" in err
+
+
+def test_frequencies_that_cannot_be_scored_are_refused_before_any_solve(tmp_path, monkeypatch):
+    from groundplane.cli import main
+    from solvers.engines.nec import NecSolver
+
+    monkeypatch.setattr(NecSolver, "solve", lambda *a, **k: (_ for _ in ()).throw(AssertionError("solved")))
+    cfg = tmp_path / "s.toml"
+    cfg.write_text('[solver]\nmesh = 1.0\nfreqs = "150:200:5"\n[[candidate]]\npreset = "square-10"\n')
+    with pytest.raises(Exception, match=r"cannot be scored: the beam covers 150-200 MHz but the fit band is 55-97"):
+        run_sweep(*load_config(cfg)[::2], tmp_path / "out", progress=False)
+    assert main(["optimise", "--shape", "square", "--max-area", "100", "--freqs", "150:200:5",
+                 "-o", str(tmp_path / "opt")]) == 2

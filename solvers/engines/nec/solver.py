@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import ClassVar
 
 from groundplane.design import Design, InfinitePEC
-from groundplane.errors import SolveError
+from groundplane.errors import SettingsError, SolveError
 from groundplane.sky import cache_dir
 
 from ..base import FrequencySolver, Plan, register_engine
@@ -36,6 +36,33 @@ from .mesh import NecModel, NecSettings, build_model, pec_reference_model
 MODEL_VERSION = 2  # bump when the model changes: the cache key includes it
 # 2: split feed (two half-gap segments, V/2 each) for the GR symmetry; far field on a coarse
 #    grid interpolated to 1 deg; the blade turned (0.964 m along the axis, SPEC section 1)
+
+
+def matrix_bytes(model: NecModel) -> int:
+    """NEC-2's interaction matrix: N^2 / sections complex doubles (the dominant memory)."""
+    return 16 * model.n_segments ** 2 // model.sections
+
+
+def available_memory_bytes() -> int | None:
+    """MemAvailable from /proc/meminfo (Linux), else None (no check)."""
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                return int(line.split()[1]) * 1024
+    except OSError:
+        return None
+    return None
+
+
+def check_memory(model: NecModel, processes: int, label: str) -> None:
+    """Refuse, before any NEC work, a model whose matrices do not fit in memory."""
+    need = matrix_bytes(model) * processes
+    have = available_memory_bytes()
+    if have is not None and need > 0.8 * have:
+        raise SettingsError(
+            f"{label}: {model.n_segments} segments need about {need / 2**30:.1f} GiB for NEC's matrices on "
+            f"{processes} process(es) ({matrix_bytes(model) / 2**30:.1f} GiB each); {have / 2**30:.1f} GiB is "
+            "available. Use a coarser --mesh or fewer --workers.")
 
 
 @register_engine
@@ -61,6 +88,7 @@ class NecSolver(FrequencySolver):
             raise
         except Exception as exc:  # shapely/geometry trouble: name the candidate
             raise SolveError(f"{design.label()}: could not mesh the model ({exc})") from exc
+        check_memory(model, max(1, self.workers), design.label())
         symmetric = design.plane is None or all(design.plane.mirror_symmetry.values())
         n_phi = 91 if symmetric else 360
         ref, store = None, None

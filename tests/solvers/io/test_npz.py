@@ -15,9 +15,31 @@ def test_npz_roundtrip_and_no_pickle(tmp_path):
     assert np.array_equal(c.gain, b.gain) and c.meta["solver"] == "test"
     np.savez(tmp_path / "evil.npz", freqs_mhz=np.array([1.0]), theta_deg=np.array([0.0]),
              phi_deg=np.array([0.0]), gain=np.array([[[1.0]]]), meta=np.array([{"a": 1}], dtype=object))
-    with pytest.raises(BeamFormatError, match="not a readable"):
+    with pytest.raises(BeamFormatError, match="not a readable|holds Python objects"):
         Beam.load(tmp_path / "evil.npz")
     np.savez(tmp_path / "partial.npz", freqs_mhz=np.array([1.0]))
     with pytest.raises(BeamFormatError, match="missing arrays"):
         Beam.load(tmp_path / "partial.npz")
 
+
+
+def test_npz_declaring_a_huge_array_is_refused_without_allocating(tmp_path):
+    """A header claiming 8 GB in a tiny file: refused from the header, named, no MemoryError."""
+    import io
+    import zipfile
+
+    from numpy.lib import format as npy
+
+    from groundplane.beam import Beam, BeamFormatError
+
+    p = tmp_path / "huge.npz"
+    with zipfile.ZipFile(p, "w") as zf:
+        for name, arr in (("freqs_mhz", np.arange(3.0)), ("theta_deg", np.arange(91.0)), ("phi_deg", np.arange(360.0))):
+            buf = io.BytesIO()
+            np.save(buf, arr)
+            zf.writestr(name + ".npy", buf.getvalue())
+        buf = io.BytesIO()
+        npy.write_array_header_1_0(buf, {"descr": "<f8", "fortran_order": False, "shape": (1_000_000_000,)})
+        zf.writestr("gain.npy", buf.getvalue() + b"\0" * 64)
+    with pytest.raises(BeamFormatError, match=r"huge\.npz: array 'gain' declares shape \(1000000000,\)"):
+        Beam.load(p)

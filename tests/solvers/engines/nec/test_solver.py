@@ -96,3 +96,15 @@ def test_calibration_is_solved_once_per_blade_and_frequency(tmp_path, monkeypatc
     stores[0].write_text("not json")  # damaged: recomputed, not trusted
     c = solver.solve(Design(Square(4.0), Soil()), [60.0])
     assert c.meta["gain_calibration_kappa"] == pytest.approx(a.meta["gain_calibration_kappa"], rel=1e-9)
+
+
+def test_a_model_too_big_for_memory_is_refused_before_any_solve(tmp_path, monkeypatch):
+    from groundplane.errors import SettingsError
+    from solvers.engines.nec import solver as nec_solver
+
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path))
+    monkeypatch.setattr(engine, "_GOLDEN_OK", {"pynec-accel-1.7.6": -3.23})
+    monkeypatch.setattr(engine, "radiation_pattern", lambda *a: (_ for _ in ()).throw(AssertionError("solved")))
+    monkeypatch.setattr(nec_solver, "available_memory_bytes", lambda: 2 * 2**30)  # a 2 GiB machine
+    with pytest.raises(SettingsError, match=r"Square\(side=10.0\).*segments need about .* GiB .* 2.0 GiB is available"):
+        NecSolver(NecSettings(spacing=0.1), workers=0, progress=False).solve(Design(Square(10.0), Soil()), [60.0])
