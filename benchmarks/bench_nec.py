@@ -76,7 +76,7 @@ def full_candidate(name: str, spacing: float) -> tuple[float, dict]:
 def main() -> None:
     p = argparse.ArgumentParser()
     p.add_argument("--candidate", default="sawtooth-20-16", choices=list(PRESETS))
-    p.add_argument("--spacings", type=float, nargs="+", default=[0.5, 0.35])
+    p.add_argument("--spacings", type=float, nargs="*", default=[0.5, 0.35])
     p.add_argument("--full", type=float, nargs="*", metavar="SPACING",
                    help="also solve 61 frequencies at these spacings (minutes each)")
     p.add_argument("--child", nargs=3, help=argparse.SUPPRESS)

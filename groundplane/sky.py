@@ -229,14 +229,18 @@ def _compute_horizon_sky(path: Path, theta: np.ndarray, phi: np.ndarray, lsts: n
     alt, az = antenna_to_horizon(theta, phi, antenna_azimuth_deg)
     times = lst_times(lsts, site)
     t408 = np.empty((lsts.size, theta.size, phi.size), dtype=np.float32)
-    it = range(lsts.size)
+    bar = None
     if progress:
-        from tqdm import tqdm
+        from .progress import Progress
 
-        it = tqdm(it, desc="sky -> horizon frame", unit="LST")
-    for i in it:
+        bar = Progress(lsts.size, "sky -> horizon frame (once per grid)", "LST")
+    for i in range(lsts.size):
         l, b = horizon_to_galactic(alt, az, [times[i]], site)
         t408[i] = hp.get_interp_val(sky, l[0], b[0], lonlat=True)
+        if bar:
+            bar.update()
+    if bar:
+        bar.close()
     return t408
 
 

@@ -46,7 +46,7 @@ def _run_sweep_cmd(args: argparse.Namespace) -> int:
     candidates, invalid, settings = load_config(args.config)
     out = Path(args.out) if args.out else Path.cwd() / f"sweep-{Path(args.config).stem}"
     rows = run_sweep(candidates, settings, out, invalid=invalid, executor=args.executor,
-                     scheduler=args.scheduler, retry_failed=args.retry_failed, progress=sys.stderr.isatty())
+                     scheduler=args.scheduler, retry_failed=args.retry_failed, progress=True)
     paths = write_report(rows, out, title=f"Sweep {Path(args.config).name}",
                          preamble=f"Command: `{invocation()}`. Settings: {settings.describe()}.")
     print(summary_table(rows))

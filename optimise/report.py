@@ -45,36 +45,61 @@ def write_report(rows: list[dict[str, Any]], out_dir: str | Path, title: str = "
     if ok:
         figs = _figures(ok, out)
     paths.update(figs)
-    table = ["| rank | candidate | shape | metal area (m^2) | extent (m) | LST-averaged FoM (mK) | "
-             "FoM, G(nu) smoothed (mK) | solve (s) |",
-             "|---|---|---|---|---|---|---|---|"]
-    for i, r in enumerate(ok, 1):
-        table.append(f"| {i} | {r['name']} | {r['shape']} | {_f(r.get('metal_area_m2'))} | {_f(r.get('extent_m'))} | "
-                     f"{r['lst_averaged_fom_mk']:.1f} | {_f(r.get('fom_smoothed_mk'))} | {_f(r.get('solve_s'), 0)} |")
+    header, cells = _ranking(ok)
     bad = [r for r in rows if r.get("status") != "ok"]
+    notes = [MESH_NOTE] if any(r.get("shape") != "beam-file" for r in ok) else []
     md = [f"# {title}", ""]
     if preamble:
         md += [preamble, ""]
-    md += table
+    md += [" ".join(notes), ""] if notes else []
+    md += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    md += ["| " + " | ".join(c) + " |" for c in cells]
     if bad:
         md += ["", "## Not scored", ""] + [f"- **{r['name']}** ({r.get('status')}): {r.get('error', '')}" for r in bad]
     if figs:
         md += ["", "## Figures", ""] + [f"![{k}]({p.name})" for k, p in figs.items()]
     paths["md"].write_text("\n".join(md) + "\n")
-    body = "".join(
-        f"<tr><td>{i}</td><td>{html.escape(r['name'])}</td><td>{r['shape']}</td><td>{_f(r.get('metal_area_m2'))}</td>"
-        f"<td>{_f(r.get('extent_m'))}</td><td>{r['lst_averaged_fom_mk']:.1f}</td></tr>"
-        for i, r in enumerate(ok, 1)
-    )
-    imgs = "".join(f'<figure><img src="{p.name}" style="max-width:100%"><figcaption>{k}</figcaption></figure>'
-                   for k, p in figs.items())
-    paths["html"].write_text(
-        f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title></head><body>"
-        f"<h1>{html.escape(title)}</h1><p>{html.escape(preamble)}</p><table border=1 cellpadding=4>"
-        "<tr><th>rank</th><th>candidate</th><th>shape</th><th>metal area (m²)</th><th>extent (m)</th>"
-        f"<th>LST-averaged FoM (mK)</th></tr>{body}</table>{imgs}</body></html>"
-    )
+    paths["html"].write_text(_html(title, [preamble, *notes], header, cells, bad, figs))
     return paths
+
+
+MESH_NOTE = ("Solved FoMs depend on the model's mesh: a coarse plate grid biases the FoM (see "
+             "results/mesh_convergence.md); compare candidates only at one mesh, and re-solve the best at a finer one.")
+
+
+def _params(r: dict[str, Any]) -> str:
+    """A candidate's shape parameters, compactly (names like sawtooth-10-2-3-5 need them)."""
+    p = r.get("params") or {}
+    return ", ".join(f"{k}={v:g}" if isinstance(v, (int, float)) else f"{k}={v}" for k, v in p.items()) or "-"
+
+
+def _ranking(ok: list[dict[str, Any]]) -> tuple[list[str], list[list[str]]]:
+    """The ranking table, once, for both the markdown and the HTML report."""
+    header = ["rank", "candidate", "shape", "parameters", "metal area (m^2)", "extent (m)",
+              "LST-averaged FoM (mK)", "FoM, G(nu) smoothed (mK)", "solve (s)"]
+    cells = [[str(i), r["name"], str(r.get("shape")), _params(r), _f(r.get("metal_area_m2")), _f(r.get("extent_m")),
+              f"{r['lst_averaged_fom_mk']:.1f}", _f(r.get("fom_smoothed_mk")), _f(r.get("solve_s"), 0)]
+             for i, r in enumerate(ok, 1)]
+    return header, cells
+
+
+def _html(title: str, paragraphs: list[str], header: list[str], cells: list[list[str]],
+          bad: list[dict[str, Any]], figs: dict[str, Path]) -> str:
+    """report.html: the same content as report.md (a page for people who would rather look)."""
+    e = html.escape
+    paras = "".join(f"<p>{e(p)}</p>" for p in paragraphs if p)
+    head = "".join(f"<th>{e(h)}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{e(c)}</td>" for c in row) + "</tr>" for row in cells)
+    lost = ""
+    if bad:
+        lost = "<h2>Not scored</h2><ul>" + "".join(
+            f"<li><b>{e(r['name'])}</b> ({e(str(r.get('status')))}): {e(str(r.get('error', '')))}</li>" for r in bad
+        ) + "</ul>"
+    imgs = "".join(f'<figure><img src="{e(p.name)}" alt="{e(k)}" style="max-width:100%"><figcaption>{e(k)}'
+                   "</figcaption></figure>" for k, p in figs.items())
+    return (f"<!doctype html><html><head><meta charset='utf-8'><title>{e(title)}</title></head><body>"
+            f"<h1>{e(title)}</h1>{paras}<table border=1 cellpadding=4><tr>{head}</tr>{body}</table>{lost}"
+            f"{('<h2>Figures</h2>' + imgs) if imgs else ''}</body></html>")
 
 
 def _f(v: Any, nd: int = 1) -> str:

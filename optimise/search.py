@@ -156,7 +156,7 @@ def optimise(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     ev = _Evaluator(fam, shape, max_area, settings, History(out / "history.jsonl"),
-                    evaluate_fn or (lambda c, s: evaluate(c, s, progress=False)), progress)
+                    evaluate_fn or (lambda c, s: evaluate(c, s, progress=progress)), progress)
     for n in ints:
         _run_nlopt(fam, n, ev, algorithm, max(1, budget // len(ints)), max_area, progress)
     ok = [r for r in ev.hist.rows if r["status"] == "ok" and r["area_m2"] <= max_area * (1 + 1e-9)]

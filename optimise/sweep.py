@@ -189,11 +189,17 @@ def run_sweep(
         print(f"sweep: {len(candidates)} candidates, {len(candidates) - len(todo)} already done, "
               f"{len(todo)} to solve -> {store.dir}", file=sys.stderr)
     if executor == "local":
-        from tqdm import tqdm
+        from groundplane.progress import Progress
 
-        for c in tqdm(todo, desc="candidates", unit="cand", disable=not progress):
+        bar = Progress(len(todo), "candidates", "cand") if progress else None
+        for c in todo:
             row = evaluate(c, settings, progress=progress)
             store.append({"key": keys[c.name], **row})
+            if bar:
+                fom = row.get("lst_averaged_fom_mk")
+                bar.update(1, f"{c.name}: {f'{fom:.1f} mK' if fom is not None else row.get('status')}")
+        if bar:
+            bar.close()
     elif executor == "dask":
         _run_dask(todo, settings, store, keys, scheduler, progress)
     else:

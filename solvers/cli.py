@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -81,7 +80,7 @@ def _run_solve(args: argparse.Namespace) -> int:
         model = build_model(design, model_settings)
         Path(args.deck).write_text(model.to_deck(solve.freqs_mhz, design.label()))
         print(f"wrote {args.deck} ({model.n_segments} segments)")
-    solver = make_solver(solve.engine, model_settings, workers=solve.workers, progress=sys.stderr.isatty(),
+    solver = make_solver(solve.engine, model_settings, workers=solve.workers, progress=True,
                          use_cache=not args.no_cache)
     beam = solver.solve(design, solve.freqs_mhz)
     out = beam.save(args.output)

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
 from .. import shapes as sh
@@ -43,7 +42,7 @@ def _run_fom(args: argparse.Namespace) -> int:
         beam = beam.frequency_smoothed(args.smooth_frequency)
     settings = from_args(FomSettings, args)
     correction = Beam.from_file(args.beam_correction) if args.beam_correction else None
-    result = figure_of_merit(beam, settings, correction_beam=correction, progress=sys.stderr.isatty())
+    result = figure_of_merit(beam, settings, correction_beam=correction, progress=True)
     if args.plot:
         from ..plots import fom_figure
 

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import csv
 import json
-import sys
 from pathlib import Path
 
 from groundplane import paper
@@ -32,7 +31,7 @@ def _run(out: Path, settings: EvalSettings, command: str, compare_mesh: float | 
     compare = None
     if compare_mesh is not None:
         compare = replace(settings, solver=replace(settings.solver_settings(), spacing=compare_mesh))
-    for t in design_study(settings, out, command, progress=sys.stderr.isatty(), compare=compare):
+    for t in design_study(settings, out, command, progress=True, compare=compare):
         print(f"{t['preset']:16s} paper {t['paper_fom_mk']:6.0f}  ours {t['our_fom_mk']}")
 
 

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import csv
 import json
-import sys
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -24,7 +23,7 @@ SIGMA = paper.SOIL_SWEEP_SIGMA
 
 @study("soil-sweep", "the paper's soil study: square-10 over eps_r 2.5-5 and sigma 0.001-0.1 S/m", uses_settings=True)
 def _run(out: Path, settings: EvalSettings, command: str) -> None:
-    for r in soil_sweep(settings, out, command, progress=sys.stderr.isatty()):
+    for r in soil_sweep(settings, out, command, progress=True):
         print(r)
 
 

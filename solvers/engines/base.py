@@ -227,9 +227,9 @@ class FrequencySolver:
         and the rest is tried once more in a fresh pool before the solve is called failed."""
         bar = None
         if self.progress:
-            from tqdm import tqdm
+            from groundplane.progress import Progress
 
-            bar = tqdm(total=n_total, initial=n_total - len(todo), unit="freq", desc=f"{self.name} {plan.label}")
+            bar = Progress(n_total, f"{self.name} {plan.label}", "freq", initial=n_total - len(todo))
         left = list(todo)
         try:
             for attempt in (1, 2):

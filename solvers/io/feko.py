@@ -26,31 +26,44 @@ def _float_row(parts: list[str], path: Path, lineno: int, expected: int) -> list
     return vals
 
 
+def _count(body: str, path: Path, lineno: int) -> int:
+    """A header's sample count ('#No. of Theta Samples: 181')."""
+    try:
+        n = int(body.split(":", 1)[1])
+    except ValueError:
+        raise BeamFormatError(f"{where(path, lineno)}: unreadable sample count '{body}'") from None
+    if n < 1:
+        raise BeamFormatError(f"{where(path, lineno)}: sample count must be >= 1, got '{body}'")
+    return n
+
+
+def _close_block(path: Path, block: dict | None, lineno: int, blocks: list[dict]) -> None:
+    """Check one finished frequency block (columns, row count) and append it to ``blocks``."""
+    if block is None:
+        return
+    if block["columns"] is None:
+        raise BeamFormatError(f"{where(path, lineno)}: the block at {block['freq_mhz']:g} MHz (starting line "
+                              f"{block['start']}) has no column-name line; truncated, or not a FEKO export")
+    for c in ("Theta", "Phi"):
+        if c not in block["columns"]:
+            raise BeamFormatError(f"{where(path, block['start'])}: no '{c}' column in the block at "
+                                  f"{block['freq_mhz']:g} MHz (found {', '.join(block['columns'])})")
+    rows = np.asarray(block["rows"], dtype=float).reshape(-1, len(block["columns"]))
+    n_expected = block["n_theta"] * block["n_phi"] if block["n_theta"] and block["n_phi"] else None
+    if n_expected is not None and rows.shape[0] != n_expected:
+        raise BeamFormatError(
+            f"{where(path, lineno)}: the block at {block['freq_mhz']:g} MHz (starting line "
+            f"{block['start']}) has {rows.shape[0]} data rows, expected {block['n_theta']} theta x "
+            f"{block['n_phi']} phi = {n_expected} (truncated file?)"
+        )
+    blocks.append({**block, "rows": rows})
+
+
 def read_ffe(path: str | Path) -> Beam:
     """One FEKO ``.ffe`` file (all frequency blocks in it)."""
     path = Path(path)
     blocks: list[dict] = []
     cur: dict | None = None
-
-    def close(block: dict | None, lineno: int) -> None:
-        if block is None:
-            return
-        if block["columns"] is None:
-            raise BeamFormatError(f"{where(path, lineno)}: the block at {block['freq_mhz']:g} MHz (starting line "
-                                  f"{block['start']}) has no column-name line; truncated, or not a FEKO export")
-        for c in ("Theta", "Phi"):
-            if c not in block["columns"]:
-                raise BeamFormatError(f"{where(path, block['start'])}: no '{c}' column in the block at "
-                                      f"{block['freq_mhz']:g} MHz (found {', '.join(block['columns'])})")
-        rows = np.asarray(block["rows"], dtype=float).reshape(-1, len(block["columns"]))
-        n_expected = block["n_theta"] * block["n_phi"] if block["n_theta"] and block["n_phi"] else None
-        if n_expected is not None and rows.shape[0] != n_expected:
-            raise BeamFormatError(
-                f"{where(path, lineno)}: the block at {block['freq_mhz']:g} MHz (starting line "
-                f"{block['start']}) has {rows.shape[0]} data rows, expected {block['n_theta']} theta x "
-                f"{block['n_phi']} phi = {n_expected} (truncated file?)"
-            )
-        blocks.append({**block, "rows": rows})
 
     with open(path, "r", errors="replace") as fh:
         for lineno, raw in enumerate(fh, 1):
@@ -60,7 +73,7 @@ def read_ffe(path: str | Path) -> Beam:
             if line.startswith("#"):
                 body = line.lstrip("#").strip()
                 if body.lower().startswith("frequency:"):
-                    close(cur, lineno)
+                    _close_block(path, cur, lineno, blocks)
                     try:
                         f_hz = float(body.split(":", 1)[1])
                     except ValueError:
@@ -69,9 +82,9 @@ def read_ffe(path: str | Path) -> Beam:
                     cur = {"freq_mhz": f_hz / 1e6, "rows": [], "columns": None, "n_theta": None,
                            "n_phi": None, "start": lineno, "result": None}
                 elif cur is not None and body.lower().startswith("no. of theta samples:"):
-                    cur["n_theta"] = int(body.split(":", 1)[1])
+                    cur["n_theta"] = _count(body, path, lineno)
                 elif cur is not None and body.lower().startswith("no. of phi samples:"):
-                    cur["n_phi"] = int(body.split(":", 1)[1])
+                    cur["n_phi"] = _count(body, path, lineno)
                 elif cur is not None and body.lower().startswith("result type:"):
                     cur["result"] = body.split(":", 1)[1].strip()
                 elif cur is not None and '"Theta"' in body:
@@ -83,7 +96,7 @@ def read_ffe(path: str | Path) -> Beam:
                     "not a FEKO .ffe far-field file?"
                 )
             cur["rows"].extend(_float_row(line.split(), path, lineno, len(cur["columns"])))
-        close(cur, lineno if cur else 0)
+        _close_block(path, cur, lineno if cur else 0, blocks)
     if not blocks:
         raise BeamFormatError(f"{path}: no '#Frequency:' block found; not a FEKO .ffe far-field file")
 

@@ -37,3 +37,44 @@ def test_report_writer(tmp_path):
     assert paths["csv"].read_text().splitlines()[1].startswith("1,b,ok")
     assert "<table" in paths["html"].read_text()
 
+
+
+def test_html_report_carries_everything_the_markdown_does(tmp_path):
+    """Parsed, not grepped: every table cell, the not-scored section, the notes and every
+    figure of report.md are in report.html."""
+    from html.parser import HTMLParser
+
+    rows = [
+        {"name": "sawtooth-10-2-3-5", "status": "ok", "shape": "sawtooth",
+         "params": {"side": 10.0, "teeth_per_side": 2, "tooth_base": 3.0, "tooth_height": 5.0},
+         "metal_area_m2": 160.0, "extent_m": 20.0, "lst_averaged_fom_mk": 250.0, "fom_smoothed_mk": 240.5,
+         "fom_mk": [200.0, 300.0], "lst_hours": [0.0, 12.0], "fit_freqs_mhz": [55.0, 60.0],
+         "residuals_mk": {"2": [1.0, -1.0]}, "solve_s": 123.0},
+        {"name": "broken", "status": "failed", "shape": "square", "params": {"side": 3.0}, "error": "worker died <oom>",
+         "metal_area_m2": None, "extent_m": None, "lst_averaged_fom_mk": None},
+    ]
+    paths = write_report(rows, tmp_path, title="t", preamble="Settings: mesh 0.5 m; 61 frequencies")
+
+    class Cells(HTMLParser):
+        def __init__(self):
+            super().__init__()
+            self.text, self.imgs, self._cell = [], [], None
+
+        def handle_starttag(self, tag, attrs):
+            if tag == "img":
+                self.imgs.append(dict(attrs)["src"])
+
+        def handle_data(self, data):
+            self.text.append(data)
+
+    parser = Cells()
+    parser.feed(paths["html"].read_text())
+    text = "\n".join(parser.text)
+    md = paths["md"].read_text()
+    for line in md.splitlines():
+        if line.startswith("| 1 |"):
+            for cell in line.strip("|").split("|"):
+                assert cell.strip() in text
+    for needle in ("240.5", "123", "teeth_per_side=2", "worker died <oom>", "Not scored", "mesh 0.5 m", "coarse plate grid"):
+        assert needle in md and needle in text, needle
+    assert sorted(parser.imgs) == sorted(p.split("(")[1].rstrip(")") for p in md.splitlines() if p.startswith("!["))

@@ -2,8 +2,6 @@
 Beam or the project's BeamFormatError naming the file -- never another exception, never
 a hang (each example is bounded by hypothesis's deadline)."""
 import io
-import zipfile
-from pathlib import Path
 
 import numpy as np
 import pytest
