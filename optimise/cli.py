@@ -70,23 +70,34 @@ def _setup_optimise(p: argparse.ArgumentParser):
     p.add_argument("--integers", type=int, nargs="+", help="values of the family's integer parameter to try")
     p.add_argument("--compare", nargs="*", default=[], metavar="PRESET", help="presets scored with the same settings")
     p.add_argument("--step", action="store_true", help="write the best design's STEP")
+    p.add_argument("--confirm-mesh", type=float, default=None, metavar="SPACING",
+                   help="re-solve the best few at this finer mesh before answering (default 0.7 x the search "
+                        "mesh; 0: don't)")
+    p.add_argument("--confirm-top", type=int, default=3, help="how many of the best to re-solve (default 3)")
     add_eval_options(p)
     p.add_argument("-o", "--out", required=True)
     return _run_optimise
 
 
 def _run_optimise(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
     from groundplane.plots import pyplot
     from groundplane.shapes import preset
 
     from .evaluate import Candidate, evaluate
     from .report import write_report
-    from .search import best_plane, optimise
+    from .search import best_plane, mesh_spacing, optimise
 
     settings = eval_settings(args)
     out = Path(args.out)
+    spacing = mesh_spacing(settings)
+    confirm = args.confirm_mesh if args.confirm_mesh is not None else (round(0.7 * spacing, 3) if spacing else None)
     res = optimise(args.shape, args.max_area, settings, out, algorithm=args.algorithm, budget=args.budget,
-                   integer_values=tuple(args.integers) if args.integers else None, progress=True)
+                   integer_values=tuple(args.integers) if args.integers else None, progress=True,
+                   confirm_mesh=confirm or None, confirm_top=args.confirm_top)
+    if res.best and res.best.get("confirmed_at"):  # the answer and the presets at the mesh it holds at
+        settings = replace(settings, solver=replace(settings.solver_settings(), spacing=res.best["confirmed_at"]))
     rows = [evaluate(Candidate(name, plane=preset(name)), settings) for name in args.compare]
     if res.best:
         best = best_plane(args.shape, res.best)
@@ -96,6 +107,9 @@ def _run_optimise(args: argparse.Namespace) -> int:
 
             export_step(best, out / "best.step")
     _history_plot(pyplot(), res.history, out / "history.png", args.max_area)
+    args.mesh_used = (f"the {settings.solver_settings().spacing:g} m mesh"
+                      + (" (re-solved there from the search's best few)" if res.confirmed else "")
+                      if mesh_spacing(settings) else settings.engine)
     verdict = _verdict(rows, args)
     paths = write_report(rows, out, title=f"Optimised {args.shape} under {args.max_area:g} m^2",
                          preamble=f"Command: `{invocation()}`. Settings: {settings.describe()}. "
@@ -111,7 +125,7 @@ def _verdict(rows, args) -> str:
     if best is None:
         return "No feasible design was scored."
     text = (f"Best {args.shape}: {best['lst_averaged_fom_mk']:.1f} mK at {best['metal_area_m2']:.1f} m^2 "
-            f"({json.dumps(best['params'])}).")
+            f"({json.dumps(best['params'])}), solved at {args.mesh_used}.")
     for name in args.compare:
         if name in ok:
             r = ok[name]

@@ -14,7 +14,7 @@ import json
 import math
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
@@ -117,11 +117,82 @@ class History:
 
 @dataclass
 class OptimiseResult:
-    """The best history row (None if nothing feasible was scored), every row, and where they are."""
+    """The best history row (None if nothing feasible was scored), every row, and where
+    they are; ``confirmed``: the best few re-solved at the finer confirmation mesh (the
+    answer is then the best there, and says so in ``best["confirmed_at"]``)."""
 
     best: dict[str, Any] | None
     history: list[dict[str, Any]]
     out_dir: Path
+    confirmed: list[dict[str, Any]] = field(default_factory=list)
+
+
+def smallest_feature(plane: GroundPlane) -> tuple[float, float]:
+    """(shortest outline edge, narrowest spike) in m: a gap between teeth, and the base of
+    the narrowest tooth -- the span between the neighbours of a convex vertex sharper
+    than 90 deg (inf when there is none)."""
+    from shapely.geometry.polygon import orient
+
+    v = np.asarray(orient(plane.outline()).exterior.coords)[:-1]  # counter-clockwise
+    prev, nxt = np.roll(v, 1, axis=0), np.roll(v, -1, axis=0)
+    a, b = v - prev, nxt - v
+    convex = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] > 1e-12
+    sharp = np.einsum("ij,ij->i", -a, b) > 1e-12  # interior angle under 90 deg
+    edges = np.hypot(*b.T)
+    spans = np.hypot(*(nxt - prev).T)[convex & sharp]
+    return float(edges.min()), float(spans.min()) if spans.size else math.inf
+
+
+def too_fine_for(plane: GroundPlane, spacing: float) -> str | None:
+    """Why the wire grid at ``spacing`` cannot represent ``plane`` (None if it can): metal
+    narrower than two cells has at most one grid line inside it, and an outline edge under
+    half a cell is at the node-merging tolerance (0.3 cells), where the mesh moves it."""
+    edge, span = smallest_feature(plane)
+    if span < 2 * spacing:
+        return f"a {span:.2f} m wide feature is under two mesh cells ({2 * spacing:g} m)"
+    if edge < 0.5 * spacing:
+        return f"a {edge:.2f} m outline edge is under half a mesh cell ({0.5 * spacing:g} m)"
+    return None
+
+
+def mesh_spacing(settings: EvalSettings) -> float | None:
+    """The engine's plate-grid spacing, if it has one."""
+    return getattr(settings.solver_settings(), "spacing", None)
+
+
+def _confirm(ev: "_Evaluator", settings: EvalSettings, out: Path, spacing: float, top: int,
+             progress: bool) -> list[dict[str, Any]]:
+    """Re-solve the ``top`` best distinct designs of the search at ``spacing`` (resumable:
+    confirm.jsonl), so the answer is one that holds at a finer mesh than the search used."""
+    from dataclasses import replace
+
+    fine = replace(settings, solver=replace(settings.solver_settings(), spacing=spacing))
+    done = {History.key(r["integer"], r["x"]): r for r in read_jsonl(out / "confirm.jsonl")}
+    ok = sorted((r for r in ev.hist.rows if r["status"] == "ok" and r["area_m2"] <= ev.max_area * (1 + 1e-9)),
+                key=lambda r: r["fom_mk"])
+    picked, seen = [], set()
+    for r in ok:
+        k = History.key(r["integer"], r["x"])
+        if k not in seen:
+            seen.add(k)
+            picked.append(r)
+        if len(picked) == top:
+            break
+    rows = []
+    for i, r in enumerate(picked, 1):
+        k = History.key(r["integer"], r["x"])
+        if k not in done:
+            if progress:
+                print(f"  confirm {i}/{len(picked)} at {spacing:g} m: {r.get('name')} "
+                      f"({r['fom_mk']:.1f} mK at the search mesh)", file=sys.stderr, flush=True)
+            plane = ev.fam.build(np.array(r["x"]), r["integer"])
+            res = ev.evaluate_fn(Candidate(f"{ev.shape}-confirm-{i}", plane=plane), fine)
+            fom = res.get("lst_averaged_fom_mk") if res.get("status") == "ok" else None
+            done[k] = {**r, "search_fom_mk": r["fom_mk"], "fom_mk": fom, "confirmed_at": spacing,
+                       "status": "ok" if fom is not None else "failed"}
+            append_jsonl(out / "confirm.jsonl", done[k])
+        rows.append(done[k])
+    return rows
 
 
 def optimise(
@@ -135,6 +206,8 @@ def optimise(
     integer_values: tuple[int, ...] | None = None,
     evaluate_fn: Callable[[Candidate, EvalSettings], dict[str, Any]] | None = None,
     progress: bool = True,
+    confirm_mesh: float | None = None,
+    confirm_top: int = 3,
 ) -> OptimiseResult:
     """Minimise the LST-averaged FoM of ``shape`` with metal area <= ``max_area`` (m^2).
 
@@ -161,8 +234,14 @@ def optimise(
         _run_nlopt(fam, n, ev, algorithm, max(1, budget // len(ints)), max_area, progress)
     ok = [r for r in ev.hist.rows if r["status"] == "ok" and r["area_m2"] <= max_area * (1 + 1e-9)]
     best = min(ok, key=lambda r: r["fom_mk"]) if ok else None
+    confirmed: list[dict[str, Any]] = []
+    if best is not None and confirm_mesh:
+        confirmed = _confirm(ev, settings, out, confirm_mesh, confirm_top, progress)
+        held = [r for r in confirmed if r["status"] == "ok"]
+        if held:
+            best = min(held, key=lambda r: r["fom_mk"])
     (out / "best.json").write_text(json.dumps(best, indent=1))
-    return OptimiseResult(best, ev.hist.rows, out)
+    return OptimiseResult(best, ev.hist.rows, out, confirmed)
 
 
 @dataclass
@@ -210,6 +289,9 @@ class _Evaluator:
             plane = self.fam.build(x, n)
         except ShapeError as exc:
             return {"status": "invalid", "fom_mk": None, "error": str(exc)}
+        spacing = mesh_spacing(self.settings)
+        if spacing and (why := too_fine_for(plane, spacing)):  # the search would exploit the model
+            return {"status": "invalid", "fom_mk": None, "error": why}
         if self.progress:
             print(f"  eval {len(self.hist.rows) + 1:3d}: solving {plane.describe()} ...", file=sys.stderr, flush=True)
         res = self.evaluate_fn(Candidate(f"{self.shape}-{len(self.hist.rows)}", plane=plane), self.settings)

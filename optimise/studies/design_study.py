@@ -147,6 +147,30 @@ def conclusions(table: list[dict], column: str = "our_fom_mk") -> list[str]:
     return lines
 
 
+def rank_correlation(table: list[dict], column: str = "our_fom_mk") -> float | None:
+    """Spearman rank correlation of ``column`` with the paper's Table 3 (None if rows are missing)."""
+    from scipy.stats import spearmanr
+
+    pairs = [(t["paper_fom_mk"], t.get(column)) for t in table]
+    if any(v is None for _, v in pairs) or len(pairs) < 3:
+        return None
+    return float(spearmanr([p for p, _ in pairs], [v for _, v in pairs]).statistic)
+
+
+def _spearman_md(table: list[dict], other: list[dict] | None, sp: str, osp: str | None) -> list[str]:
+    parts = []
+    for tab, label in ((table, sp), (other, osp)):
+        if not tab:
+            continue
+        for col, what in (("our_fom_mk", "raw FoM"), ("smoothed_fom_mk", "G(nu)-smoothed FoM")):
+            r = rank_correlation(tab, col)
+            if r is not None:
+                parts.append(f"{what} at {label}: **{r:+.2f}**")
+    if not parts:
+        return []
+    return ["", "Rank correlation (Spearman) of our FoMs with Table 3's: " + "; ".join(parts) + "."]
+
+
 def _design_md(table: list[dict], settings: EvalSettings, command: str,
                other: list[dict] | None = None, compare: EvalSettings | None = None,
                pec_fom: float | None = None) -> str:
@@ -183,6 +207,7 @@ def _design_md(table: list[dict], settings: EvalSettings, command: str,
             o, c = other[i]["our_fom_mk"], change(i)
             row += f" {'-' if o is None else f'{o:.1f}'} | {'-' if c is None else f'{c:+.1f} %'} |"
         lines.append(row)
+    lines += _spearman_md(table, other, sp, osp)
     r0 = None
     if pec_fom is not None:
         r0 = pec_fom / PAPER_PEC_FOM_MK

@@ -81,3 +81,38 @@ def test_every_family_start_is_valid_and_in_budget():
             plane = fam.build(x, n)
             assert plane.metal_area == pytest.approx(fam.area(x, n))
 
+
+
+def test_small_features_are_refused_and_the_answer_is_confirmed_at_a_finer_mesh(tmp_path):
+    """The search may not exploit the wire grid (teeth or gaps under two cells are invalid),
+    and its answer is the best of its top few re-solved at the finer mesh, saying so."""
+    from dataclasses import replace
+
+    from optimise.search import too_fine_for
+
+    coarse = EvalSettings()
+    spacing = coarse.solver_settings().spacing
+
+    def fom(p, s):  # a model artefact: the coarse mesh flatters narrow teeth, the fine one does not
+        return 100.0 + p.tooth_base * (1.0 if s.solver_settings().spacing < spacing else -1.0)
+
+    calls = []
+
+    def ev(candidate, settings):
+        calls.append((candidate.plane, settings.solver_settings().spacing))
+        return {"status": "ok", "lst_averaged_fom_mk": fom(candidate.plane, settings), "name": candidate.name}
+
+    res = optimise("sawtooth", 300.0, coarse, tmp_path, budget=40, integer_values=(3,), evaluate_fn=ev,
+                   progress=False, confirm_mesh=0.7 * spacing, confirm_top=3)
+    for plane, sp in calls:
+        assert too_fine_for(plane, sp) is None or sp < spacing
+    fine = [c for c in calls if c[1] < spacing]
+    assert 1 <= len(fine) <= 3 and res.best["confirmed_at"] == pytest.approx(0.7 * spacing)
+    assert res.best["fom_mk"] == min(r["fom_mk"] for r in res.confirmed)
+    assert res.best["search_fom_mk"] != res.best["fom_mk"]
+    # resumable: the confirmation is not solved again
+    n = len(calls)
+    optimise("sawtooth", 300.0, coarse, tmp_path, budget=40, integer_values=(3,), evaluate_fn=ev, progress=False,
+             confirm_mesh=0.7 * spacing, confirm_top=3)
+    assert len(calls) == n
+    assert replace  # noqa: the settings object is a frozen dataclass: replace() is how the fine mesh is made
