@@ -86,8 +86,6 @@ def test_every_family_start_is_valid_and_in_budget():
 def test_small_features_are_refused_and_the_answer_is_confirmed_at_a_finer_mesh(tmp_path):
     """The search may not exploit the wire grid (teeth or gaps under two cells are invalid),
     and its answer is the best of its top few re-solved at the finer mesh, saying so."""
-    from dataclasses import replace
-
     from optimise.search import too_fine_for
 
     coarse = EvalSettings()
@@ -115,4 +113,3 @@ def test_small_features_are_refused_and_the_answer_is_confirmed_at_a_finer_mesh(
     optimise("sawtooth", 300.0, coarse, tmp_path, budget=40, integer_values=(3,), evaluate_fn=ev, progress=False,
              confirm_mesh=0.7 * spacing, confirm_top=3)
     assert len(calls) == n
-    assert replace  # noqa: the settings object is a frozen dataclass: replace() is how the fine mesh is made
