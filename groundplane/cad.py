@@ -142,7 +142,9 @@ def draw_outline(shape: GroundPlane, path: str | Path, title: str | None = None)
     ax.set_title(title or f"{shape.describe()}\nmetal area {shape.metal_area:.2f} m$^2$, "
                  f"{shape.edge_count} edges", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    from .plots import save_figure
+
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path
 

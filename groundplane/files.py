@@ -36,6 +36,21 @@ def atomic_path(path: str | os.PathLike, suffix: str = ".tmp") -> Iterator[Path]
             os.unlink(tmp)
 
 
+def check_output(path: str | os.PathLike) -> str:
+    """Refuse, before any work, an output path that cannot be written (a directory, a
+    folder without write permission); returns the note a command prints when it will
+    replace an existing file (always atomically)."""
+    path = Path(path)
+    if path.is_dir():
+        raise UserInputError(f"{path}: is a directory; give a file name to write")
+    parent = path.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise UserInputError(f"{path}: cannot write here ({parent} is not writable)")
+    return " (replaced the existing file atomically)" if path.exists() else ""
+
+
 def append_jsonl(path: str | os.PathLike, row: dict[str, Any]) -> None:
     """Append one JSON line and fsync it. A line torn by an earlier kill is ended first,
     so it stays one unreadable line instead of swallowing this row."""

@@ -19,6 +19,23 @@ def pyplot():
     return plt
 
 
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
+
+
+def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
+    """Write a figure atomically to ``path``, whose suffix names the format (a directory or
+    a missing suffix is refused: matplotlib would silently write ``<dir>.png``)."""
+    from .errors import UserInputError
+    from .files import atomic_path
+
+    path = Path(path)
+    if path.suffix.lower() not in FIGURE_SUFFIXES:
+        raise UserInputError(f"{path}: a figure file needs one of the suffixes {', '.join(FIGURE_SUFFIXES)}")
+    with atomic_path(path, suffix=path.suffix) as tmp:
+        fig.savefig(tmp, dpi=dpi, format=path.suffix[1:].lower())
+    return path
+
+
 def fom_figure(results: Sequence[FomResult], labels: Sequence[str], path: str | Path,
                lst_hours_for_residuals: Sequence[float] = (2.0, 6.0, 12.0, 18.0)) -> Path:
     """FoM vs LST (top) and LinLog residual spectra at a few LSTs (bottom), one line per beam."""
@@ -47,6 +64,6 @@ def fom_figure(results: Sequence[FomResult], labels: Sequence[str], path: str | 
         a.set_ylabel("T_ant - model (mK)")
         a.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path

@@ -2,12 +2,12 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 from typing import Any, Mapping
 
 from groundplane.cli import CLIError, add_shape_options, command, shape_from_args
 from groundplane.design import Soil
 from groundplane.errors import ConfigError
+from groundplane.files import atomic_path, check_output
 from groundplane.options import add_options, build, from_args, option_keys
 
 from .engines import ENGINES
@@ -78,13 +78,16 @@ def _run_solve(args: argparse.Namespace) -> int:
         from .engines.nec import build_model
 
         model = build_model(design, model_settings)
-        Path(args.deck).write_text(model.to_deck(solve.freqs_mhz, design.label()))
-        print(f"wrote {args.deck} ({model.n_segments} segments)")
+        note = check_output(args.deck)
+        with atomic_path(args.deck, suffix=".nec.tmp") as tmp:
+            tmp.write_text(model.to_deck(solve.freqs_mhz, design.label()))
+        print(f"wrote {args.deck}{note} ({model.n_segments} segments)")
     solver = make_solver(solve.engine, model_settings, workers=solve.workers, progress=True,
                          use_cache=not args.no_cache)
+    note = check_output(args.output)  # before the solve, not after it
     beam = solver.solve(design, solve.freqs_mhz)
     out = beam.save(args.output)
     secs = sum(beam.meta.get("seconds_per_frequency", []))
-    print(f"wrote {out}: {design.label()}, {beam.meta.get('n_segments', '?')} segments, {len(solve.freqs_mhz)} "
+    print(f"wrote {out}{note}: {design.label()}, {beam.meta.get('n_segments', '?')} segments, {len(solve.freqs_mhz)} "
           f"frequencies ({secs:.0f} s of solver time; cache key {beam.meta['cache_key']})")
     return 0

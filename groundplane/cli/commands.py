@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 from .. import shapes as sh
+from ..errors import UserInputError
 from ..fom import FomSettings
 from ..options import add_options, from_args
 from . import add_shape_options, command, shape_from_args
@@ -37,6 +38,14 @@ def _run_fom(args: argparse.Namespace) -> int:
     from ..beam import Beam
     from ..fom import chromaticity_report, figure_of_merit
 
+    if args.plot:
+        from ..files import check_output
+        from ..plots import FIGURE_SUFFIXES
+
+        check_output(args.plot)
+        if Path(args.plot).suffix.lower() not in FIGURE_SUFFIXES:
+            raise UserInputError(f"--plot {args.plot}: a figure file needs one of the suffixes "
+                                 f"{', '.join(FIGURE_SUFFIXES)}")
     beam = Beam.from_file(args.paths, args.format)
     if args.smooth_frequency:
         beam = beam.frequency_smoothed(args.smooth_frequency)
@@ -99,11 +108,13 @@ def _setup_export(p: argparse.ArgumentParser):
 
 def _run_export(args: argparse.Namespace) -> int:
     from .. import cad
+    from ..files import check_output
 
     shape = shape_from_args(args)
     assert shape is not None
+    note = check_output(args.output)
     out = cad.export(shape, args.output, thickness=args.thickness, with_antenna=args.with_antenna)
-    print(f"wrote {out} ({shape.describe()}, metal area {shape.metal_area:.2f} m^2, extent {shape.extent:.2f} m)")
+    print(f"wrote {out}{note} ({shape.describe()}, metal area {shape.metal_area:.2f} m^2, extent {shape.extent:.2f} m)")
     return 0
 
 
@@ -117,9 +128,11 @@ def _setup_convert(p: argparse.ArgumentParser):
 
 def _run_convert(args: argparse.Namespace) -> int:
     from ..beam import Beam
+    from ..files import check_output
 
+    note = check_output(args.output)
     beam = Beam.from_file(args.paths, args.format)
     out = beam.save(args.output)
-    print(f"wrote {out}: {beam.freqs_mhz.size} frequencies {beam.freqs_mhz.min():g}-{beam.freqs_mhz.max():g} MHz, "
+    print(f"wrote {out}{note}: {beam.freqs_mhz.size} frequencies {beam.freqs_mhz.min():g}-{beam.freqs_mhz.max():g} MHz, "
           f"{beam.theta_deg.size} x {beam.phi_deg.size} directions")
     return 0

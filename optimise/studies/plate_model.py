@@ -48,7 +48,7 @@ def plate_model(out: Path, command: str, grid=GRID, shape: str = "square-10") ->
         row = {"spacing_m": sp, "height_m": h, "radius_m": r, "segments": beam.meta["n_segments"],
                "fom_mk": res.lst_averaged_fom_mk, "smoothed12_mk": fom_mk(beam.frequency_smoothed(12)),
                "narrow_rms": narrow_rms(beam.upper_hemisphere()), "efficiency_75": efficiency(beam),
-               "fom_lst_min_mk": float(np.min(res.fom_mk)), "fom_lst_max_mk": float(np.max(res.fom_mk)),
+               "fom_lst_min_mk": float(np.min(res.fom)) * 1e3, "fom_lst_max_mk": float(np.max(res.fom)) * 1e3,
                "wall_s": secs}
         rows.append(row)
         lines.append(f"| {sp:g} | {h:g} | {r:g} | {row['segments']} | {row['fom_mk']:.1f} | "

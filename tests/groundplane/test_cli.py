@@ -85,3 +85,21 @@ def test_shape_flags_say_which_family_uses_them(capsys):
     out = capsys.readouterr().out
     assert "[square, sawtooth] side of the central square (m) / side of the square (m)" in " ".join(out.split())
     assert "[sawtooth] triangles on each side" in " ".join(out.split())
+
+
+def test_outputs_checked_before_work_and_replaced_atomically(tmp_path, capsys):
+    from groundplane.cli import main
+    from tests.conftest import EXAMPLE_BEAM
+
+    # a directory as the figure: refused before scoring (matplotlib would write <dir>.png)
+    assert main(["fom", str(EXAMPLE_BEAM), "--fit-band", "90", "190", "--plot", str(tmp_path)]) == 2
+    assert "is a directory" in capsys.readouterr().err and not (tmp_path.parent / (tmp_path.name + ".png")).exists()
+    assert main(["fom", str(EXAMPLE_BEAM), "--fit-band", "90", "190", "--plot", str(tmp_path / "fig")]) == 2
+    assert "needs one of the suffixes" in capsys.readouterr().err
+    out = tmp_path / "b.npz"
+    assert main(["convert", str(EXAMPLE_BEAM), "-o", str(out)]) == 0
+    assert "replaced" not in capsys.readouterr().out
+    assert main(["convert", str(EXAMPLE_BEAM), "-o", str(out)]) == 0
+    assert "replaced the existing file atomically" in capsys.readouterr().out
+    assert main(["convert", str(EXAMPLE_BEAM), "-o", str(tmp_path)]) == 2
+    assert not list(tmp_path.glob("*.tmp*"))

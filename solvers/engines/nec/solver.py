@@ -96,7 +96,7 @@ class NecSolver(FrequencySolver):
             ref = model if isinstance(design.ground, InfinitePEC) else pec_reference_model(design, self.settings)
             if ref is not model and self.use_cache:
                 store = str(self._calibration_store(ref))
-        label = f"{design.plane.key() if design.plane else 'PEC'} ({model.n_segments} seg)"
+        label = f"{design.plane.describe() if design.plane else 'blade over PEC'} ({model.n_segments} seg)"
         payload = (model, ref, n_phi, self.settings.far_field_step, store)
         meta = {"n_segments": model.n_segments, "rotational_symmetry_sections": model.sections}
         return Plan(engine.solve_frequency, payload, n_phi, meta, label)
