@@ -24,11 +24,15 @@ from solvers.engines.nec import NecSettings
 from . import study
 from ._common import efficiency, fom_mk, machine, narrow_rms, solve
 
-# (spacing m, plate height m, wire radius m): height at a fixed radius, then radius at a
-# fixed height, then spacing at the lowest height
+# (spacing m, plate height m, wire radius m): radius at a fixed height, height at a fixed
+# radius, the thickest wire NEC allows (r = h/3) as the plate comes down to the soil, then
+# spacing at the lowest heights
 GRID = (
-    (0.5, 0.05, 0.01), (0.5, 0.05, 0.003), (0.5, 0.02, 0.003), (0.5, 0.01, 0.003),
-    (0.5, 0.01, 0.001), (0.5, 0.005, 0.001), (0.35, 0.01, 0.003), (0.35, 0.005, 0.001),
+    (0.5, 0.05, 0.01), (0.5, 0.05, 0.003),
+    (0.5, 0.03, 0.003), (0.5, 0.02, 0.003), (0.5, 0.015, 0.003), (0.5, 0.01, 0.003),
+    (0.5, 0.02, 0.001), (0.5, 0.01, 0.001), (0.5, 0.005, 0.001), (0.5, 0.003, 0.001),
+    (0.5, 0.03, 0.01), (0.5, 0.02, 0.0066), (0.5, 0.005, 0.0016),
+    (0.35, 0.01, 0.003), (0.35, 0.005, 0.001), (0.35, 0.005, 0.0016),
 )
 
 
