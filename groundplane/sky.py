@@ -263,7 +263,7 @@ def _read_sky_cache(file: Path, shape: tuple[int, ...]) -> np.ndarray | None:
         if ok and not check.exists():  # written before checksums: plausible, so adopt it
             check.write_text(json.dumps({"crc32": _crc(t408), "shape": list(t408.shape)}))
         ok = ok and json.loads(check.read_text()).get("crc32") == _crc(t408)
-    except (OSError, ValueError, TypeError, AttributeError):
+    except (OSError, ValueError, TypeError, AttributeError, EOFError):
         ok = False
     if not ok:
         file.unlink(missing_ok=True)

@@ -143,3 +143,28 @@ def test_frequency_smoothing_keeps_broadband_structure_and_removes_narrow_spikes
     with pytest.raises(ValueError, match="smoothing degree"):
         Beam(f, th, ph, g).frequency_smoothed(61)
 
+
+
+@pytest.mark.parametrize("damage", ["overwrite", "truncate", "empty", "no-checksum-garbage"])
+def test_damaged_sky_cache_is_recomputed_not_trusted(highband, tmp_path, monkeypatch, damage):
+    """An overwritten horizon-sky cache once scored 7e30 mK: every kind of damage is caught
+    (CRC-32 beside the entry, shape, plausible kelvins), the entry recomputed, the FoM right."""
+    from groundplane import sky
+
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path))
+    sky._MEMORY.clear()
+    s = FomSettings(fit_band_mhz=(90.0, 190.0), n_lst=4)
+    good = figure_of_merit(highband, s).lst_averaged_fom_mk
+    f = next(tmp_path.glob("horizon_sky_*.npy"))
+    raw = f.read_bytes()
+    if damage == "overwrite":  # same size, values replaced (header kept)
+        f.write_bytes(raw[:128] + np.full((len(raw) - 128) // 4, 1e30, np.float32).tobytes())
+    elif damage == "truncate":
+        f.write_bytes(raw[: len(raw) // 2])
+    elif damage == "empty":
+        f.write_bytes(b"")
+    else:  # garbage values and the checksum gone
+        f.write_bytes(raw[:128] + np.full((len(raw) - 128) // 4, -5.0, np.float32).tobytes())
+        f.with_suffix(".crc.json").unlink()
+    sky._MEMORY.clear()
+    assert figure_of_merit(highband, s).lst_averaged_fom_mk == pytest.approx(good, rel=1e-9)
