@@ -103,3 +103,17 @@ def test_outputs_checked_before_work_and_replaced_atomically(tmp_path, capsys):
     assert "replaced the existing file atomically" in capsys.readouterr().out
     assert main(["convert", str(EXAMPLE_BEAM), "-o", str(tmp_path)]) == 2
     assert not list(tmp_path.glob("*.tmp*"))
+
+
+def test_shipped_lowband_sample_scores_with_default_settings(capsys):
+    """README's first command: the low-band sample covers 40-100 MHz at 1 MHz, so the
+    paper's default FoM settings score it (the 40 MHz FEKO export in ../shared cannot be)."""
+    import json
+
+    from groundplane.cli import main
+    from tests.conftest import ROOT
+
+    assert main(["fom", str(ROOT / "examples" / "lowband_square10_nec.npz"), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["lst_averaged_fom_mk"] == pytest.approx(239.5, abs=0.1)
+    assert out["settings"]["fit_band_mhz"] == [55.0, 97.0]
