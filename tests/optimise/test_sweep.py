@@ -150,3 +150,17 @@ def test_frequencies_that_cannot_be_scored_are_refused_before_any_solve(tmp_path
         run_sweep(*load_config(cfg)[::2], tmp_path / "out", progress=False)
     assert main(["optimise", "--shape", "square", "--max-area", "100", "--freqs", "150:200:5",
                  "-o", str(tmp_path / "opt")]) == 2
+
+
+@pytest.mark.parametrize("body,msg", [
+    ('[fom]\nnormalise = "false"\n', r"normalise: expected true or false, got 'false'"),
+    ("[solver]\nmesh = true\n", r"mesh: expected a number, got True"),
+    ("[fom]\nn_lst = 3.7\n", r"n_lst: expected a whole number, got 3.7"),
+    ('[fom]\nfit_band = "55"\n', r"fit_band: expected 2 numbers"),
+    ("[[candidate]]\npreset = 'square-10'\nside = 3\n", r"preset"),
+])
+def test_toml_values_are_type_checked_not_coerced(tmp_path, body, msg):
+    p = tmp_path / "s.toml"
+    p.write_text(body + ("" if "candidate" in body else "[[candidate]]\npreset = 'square-10'\n"))
+    with pytest.raises(ConfigError, match=msg):
+        load_config(p)
