@@ -222,7 +222,7 @@ def _design_md(table: list[dict], settings: EvalSettings, command: str,
     if any(t.get("smoothed_fom_mk") is not None for t in table):
         lines += ["", f"Same conclusions on the FoM with G(nu) smoothed (degree-{SMOOTHING_DEGREE} Chebyshev fit "
                       f"per direction, "
-                      f"removing the narrow-band resonances of the wire grid with the ground 5 cm below it; "
+                      f"removing the wire-grid model's narrow-band structure; "
                       f"`results/spectral_artefacts.md`), at {sp}:", ""]
         lines += conclusions(table, "smoothed_fom_mk")
         if other and any(t.get("smoothed_fom_mk") is not None for t in other):
@@ -242,12 +242,11 @@ def _off_rows_md(table: list[dict], other: list[dict] | None, sp: str, osp: str 
     if off:
         lines += ["", "## Rows more than 25 % from the paper", "",
                   "Common causes, measured elsewhere in `results/`: (a) our bare wire-grid blade (no balun, top "
-                  "plate or shield) is more chromatic than the FEKO model even over infinite PEC "
-                  "(`results/validation.md`: 2.05x the FEKO FoM); (b) the plate mesh is not converged at the "
-                  "spacing used (`results/mesh_convergence.md`: on square-10 the FoM falls 10 % from 0.5 to "
-                  "0.35 m and keeps falling); (c) the paper's FEKO plate is a solid sheet, ours a wire grid "
-                  "5 cm above the soil, whose narrow-band resonances with the ground add spectral structure "
-                  "(`results/spectral_artefacts.md`: for the large plates most of our FoM). Per row:", ""]
+                  "plate or shield) differs from the FEKO model even over infinite PEC (`results/validation.md`"
+                  + (f": {r0:.2f}x the FEKO FoM" if r0 is not None else "") + "); (b) the plate mesh may not be "
+                  "converged at the spacing used (the last column); (c) the paper's FEKO plate is a solid sheet "
+                  "on the soil, ours a wire grid a few mm above it, which leaks more power into the soil and "
+                  "carries narrow-band structure (`results/plate_model.md`). Per row:", ""]
         for i, t in off:
             c = change(i) if other else None
             mesh = (f"refining the mesh {_arrow(osp, sp)} moved it {c:+.1f} %, so (b) is "
