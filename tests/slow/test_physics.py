@@ -35,5 +35,5 @@ def test_design_study_row_square10_on_soil():
         Design(PRESETS["square-10"], Soil()), DEFAULT_FREQS_MHZ)
     res = figure_of_merit(beam, FomSettings())
     assert np.isfinite(res.lst_averaged_fom_mk) and res.lst_averaged_fom_mk > 0
-    peak = res.lst_hours[int(np.argmax(res.fom_mk))]
+    peak = res.lst_hours[int(np.argmax(res.fom))]
     assert 15.0 <= peak <= 20.0, peak
