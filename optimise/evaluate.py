@@ -21,7 +21,7 @@ import numpy as np
 from groundplane.beam import Beam
 from groundplane.design import Design, Soil
 from groundplane.errors import UserInputError
-from groundplane.fom import FomSettings, figure_of_merit
+from groundplane.fom import FomSettings, figure_of_merit, narrow_band_rms
 from groundplane.shapes import GroundPlane, to_dict
 from solvers.engines import DEFAULT_FREQS_MHZ, ENGINES, Solver, make_solver
 from solvers.io import load_beam
@@ -150,6 +150,7 @@ def score(candidate: Candidate, beam: Beam, settings: EvalSettings, seconds: flo
         # diagnostic: the FoM once narrow-band structure (solver artefacts) is smoothed out
         # of G(nu); see results/spectral_artefacts.md
         "fom_smoothed_mk": smoothed_fom_mk(beam, settings),
+        "narrow_band_rms": narrow_band_rms(beam) if beam.freqs_mhz.size >= 2 * SMOOTHING_DEGREE + 1 else None,
         "fom_mk": (result.fom * 1e3).round(4).tolist(),
         "lst_hours": result.lst_hours.round(6).tolist(),
         "fit_freqs_mhz": result.freqs_mhz[result.fit_mask].tolist(),

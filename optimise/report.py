@@ -76,9 +76,10 @@ def _params(r: dict[str, Any]) -> str:
 def _ranking(ok: list[dict[str, Any]]) -> tuple[list[str], list[list[str]]]:
     """The ranking table, once, for both the markdown and the HTML report."""
     header = ["rank", "candidate", "shape", "parameters", "metal area (m^2)", "extent (m)",
-              "LST-averaged FoM (mK)", "FoM, G(nu) smoothed (mK)", "solve (s)"]
+              "LST-averaged FoM (mK)", "FoM, G(nu) smoothed (mK)", "narrow-band rms", "solve (s)"]
     cells = [[str(i), r["name"], str(r.get("shape")), _params(r), _f(r.get("metal_area_m2")), _f(r.get("extent_m")),
-              f"{r['lst_averaged_fom_mk']:.1f}", _f(r.get("fom_smoothed_mk")), _f(r.get("solve_s"), 0)]
+              f"{r['lst_averaged_fom_mk']:.1f}", _f(r.get("fom_smoothed_mk")),
+              "-" if r.get("narrow_band_rms") is None else f"{r['narrow_band_rms']:.1e}", _f(r.get("solve_s"), 0)]
              for i, r in enumerate(ok, 1)]
     return header, cells
 

@@ -48,7 +48,9 @@ def efficiency(beam: Beam, f: float = 75.0) -> float:
 
 
 def narrow_rms(beam: Beam, degree: int = 12) -> float:
-    """rms(G - its degree-``degree`` Chebyshev fit in frequency) / mean G: narrow-band structure."""
+    """rms(G - its degree-``degree`` Chebyshev fit in frequency) / mean G over the whole
+    stored grid (the committed v1 studies used this); see ``groundplane.fom.narrow_band_rms``
+    for the upper-hemisphere metric."""
     return float(np.std(beam.gain - beam.frequency_smoothed(degree).gain) / np.mean(beam.gain))
 
 

@@ -17,12 +17,12 @@ import numpy as np
 
 from groundplane import paper
 from groundplane.design import Design, Soil
-from groundplane.fom import FomSettings, figure_of_merit
+from groundplane.fom import FomSettings, figure_of_merit, narrow_band_rms
 from groundplane.shapes import PRESETS
 from solvers.engines.nec import NecSettings
 
 from . import study
-from ._common import efficiency, fom_mk, machine, narrow_rms, solve
+from ._common import efficiency, fom_mk, machine, solve
 
 # (spacing m, plate height m, wire radius m): radius at a fixed height, height at a fixed
 # radius, the thickest wire NEC allows (r = h/3) as the plate comes down to the soil, then
@@ -52,7 +52,7 @@ def plate_model(out: Path, command: str, grid=GRID, shape: str = "square-10") ->
         res = figure_of_merit(beam, FomSettings())
         row = {"spacing_m": sp, "height_m": h, "radius_m": r, "segments": beam.meta["n_segments"],
                "fom_mk": res.lst_averaged_fom_mk, "smoothed12_mk": fom_mk(beam.frequency_smoothed(12)),
-               "narrow_rms": narrow_rms(beam.upper_hemisphere()), "efficiency_75": efficiency(beam),
+               "narrow_rms": narrow_band_rms(beam), "efficiency_75": efficiency(beam),
                "fom_lst_min_mk": float(np.min(res.fom)) * 1e3, "fom_lst_max_mk": float(np.max(res.fom)) * 1e3,
                "wall_s": secs}
         rows.append(row)

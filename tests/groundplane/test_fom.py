@@ -168,3 +168,16 @@ def test_damaged_sky_cache_is_recomputed_not_trusted(highband, tmp_path, monkeyp
         f.with_suffix(".crc.json").unlink()
     sky._MEMORY.clear()
     assert figure_of_merit(highband, s).lst_averaged_fom_mk == pytest.approx(good, rel=1e-9)
+
+
+def test_narrow_band_rms_sees_resonances_not_broadband_chromaticity():
+    from groundplane.fom import narrow_band_rms
+
+    f = np.arange(40.0, 101.0)
+    th, ph = np.arange(91.0), np.arange(0.0, 360.0, 10.0)
+    ripple = (f / 75.0) ** -0.5 * (1 + 0.1 * np.cos(2 * np.pi * (f - 40) / 60.0))  # broadband chromaticity
+    broad = ripple[:, None, None] * np.cos(np.radians(th))[None, :, None] ** 2
+    g = np.repeat(broad, ph.size, axis=2) + 1e-3
+    assert narrow_band_rms(Beam(f, th, ph, g)) < 1e-4
+    spiky = g * (1 + 0.01 * np.isin(f, [61.0, 73.0, 88.0]))[:, None, None]
+    assert narrow_band_rms(Beam(f, th, ph, spiky)) > 1e-3
