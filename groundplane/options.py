@@ -204,7 +204,14 @@ def option_keys(cls: type) -> set[str]:
 
 
 def parse_freqs(spec: str) -> tuple[float, ...]:
-    """'40:100:1' (inclusive) or '50,75,100' -> MHz, checked: positive, increasing, no repeats."""
+    """'40:100:1' (inclusive), '50,75,100' or 'fit-band' (the paper's LinLog fit band,
+    55-97 MHz at 1 MHz: the only frequencies the FoM uses, so the same FoM for 43/61 of
+    the solve time) -> MHz, checked: positive, increasing, no repeats."""
+    if spec.strip().lower() == "fit-band":
+        from .paper import FIT_BAND_MHZ
+
+        lo, hi = FIT_BAND_MHZ
+        return tuple(float(f) for f in np.arange(lo, hi + 0.5, 1.0))
     try:
         if ":" in spec:
             lo, hi, step = (float(v) for v in spec.split(":"))

@@ -27,8 +27,8 @@ class SolveSettings:
     """Which engine solves, at which frequencies, on how many processes."""
 
     engine: str = option("nec", "EM engine")
-    freqs_mhz: tuple[float, ...] = option(DEFAULT_FREQS_MHZ, "frequencies (MHz): LO:HI:STEP (inclusive) or a "
-                                          "comma list (default 40:100:1)", flag="--freqs", parse=parse_freqs)
+    freqs_mhz: tuple[float, ...] = option(DEFAULT_FREQS_MHZ, "frequencies (MHz): LO:HI:STEP (inclusive), a comma "
+                                          "list, or fit-band (55:97:1, all the FoM uses) (default 40:100:1)", flag="--freqs", parse=parse_freqs)
     workers: int = option(2, "parallel solver processes (0: in this process)")
 
     def __post_init__(self) -> None:

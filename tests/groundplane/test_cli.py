@@ -1,6 +1,7 @@
 """The Figure of Merit: fast path vs an independent integration, and physics sanity checks."""
 import json
 
+import numpy as np
 import pytest
 
 from groundplane.cli import main
@@ -117,3 +118,19 @@ def test_shipped_lowband_sample_scores_with_default_settings(capsys):
     out = json.loads(capsys.readouterr().out)
     assert out["lst_averaged_fom_mk"] == pytest.approx(239.5, abs=0.1)
     assert out["settings"]["fit_band_mhz"] == [55.0, 97.0]
+    # solving only --freqs fit-band gives the same FoM: nothing outside the fit band is used
+    from groundplane.beam import Beam
+    from groundplane.fom import figure_of_merit
+    from groundplane.options import parse_freqs
+
+    full = Beam.load(ROOT / "examples" / "lowband_square10_nec.npz")
+    keep = np.isin(full.freqs_mhz, parse_freqs("fit-band"))
+    fit_only = Beam(full.freqs_mhz[keep], full.theta_deg, full.phi_deg, full.gain[keep])
+    assert figure_of_merit(fit_only).lst_averaged_fom_mk == pytest.approx(out["lst_averaged_fom_mk"], rel=1e-9)
+
+
+def test_freqs_fit_band_is_the_paper_fit_band_at_1_mhz():
+    from groundplane.options import parse_freqs
+
+    f = parse_freqs("fit-band")
+    assert f[0] == 55.0 and f[-1] == 97.0 and len(f) == 43
