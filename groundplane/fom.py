@@ -296,11 +296,13 @@ def gain_derivative(beam: Beam, phi_deg: float) -> tuple[np.ndarray, np.ndarray,
     return 0.5 * (beam.freqs_mhz[1:] + beam.freqs_mhz[:-1]), elev[order], deriv
 
 
-def narrow_band_rms(beam: Beam, degree: int = 12) -> float:
+def narrow_band_rms(beam: Beam, degree: int = 12) -> float | None:
     """Narrow-band spectral structure of a beam: rms over the upper hemisphere of G minus
-    its degree-``degree`` Chebyshev fit in frequency, over mean G. Broadband chromaticity
-    (a ~10 MHz period and slower) passes the fit; sub-MHz resonances of a model do not.
-    EDGES low-band FEKO export: 2.9e-4 (issue 11); our NEC default on square-10: 2.2e-4."""
+    its degree-``degree`` Chebyshev fit in frequency, over mean G (None when the beam has
+    too few frequencies for that fit). Broadband chromaticity (a ~10 MHz period and slower)
+    passes the fit; sub-MHz resonances of a model do not (values: results/plate_model.md)."""
+    if beam.freqs_mhz.size < 2 * degree + 1:
+        return None
     hemi = beam.upper_hemisphere()
     return float(np.std(hemi.gain - hemi.frequency_smoothed(degree).gain) / np.mean(hemi.gain))
 
@@ -309,8 +311,8 @@ def chromaticity_report(beam: Beam, settings: FomSettings = FomSettings()) -> di
     """The secondary metrics in one JSON-able dict."""
     band = (max(50.0, beam.freqs_mhz.min()), min(100.0, beam.freqs_mhz.max()))
     rep: dict[str, Any] = {}
-    if beam.freqs_mhz.size >= 2 * 12 + 1:
-        rep["narrow_band_rms"] = narrow_band_rms(beam)
+    if (nb := narrow_band_rms(beam)) is not None:
+        rep["narrow_band_rms"] = nb
     try:
         rep["gain_poly3_residuals"] = gain_polynomial_residuals(beam, band)
     except UserInputError as exc:

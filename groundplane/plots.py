@@ -22,15 +22,24 @@ def pyplot():
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
 
-def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
-    """Write a figure atomically to ``path``, whose suffix names the format (a directory or
-    a missing suffix is refused: matplotlib would silently write ``<dir>.png``)."""
+def check_figure_path(path: str | Path) -> Path:
+    """Refuse a figure path that cannot be written or names no format (a directory or a
+    missing suffix: matplotlib would silently write ``<dir>.png``)."""
     from .errors import UserInputError
-    from .files import atomic_path
+    from .files import check_output
 
     path = Path(path)
+    check_output(path)
     if path.suffix.lower() not in FIGURE_SUFFIXES:
         raise UserInputError(f"{path}: a figure file needs one of the suffixes {', '.join(FIGURE_SUFFIXES)}")
+    return path
+
+
+def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
+    """Write a figure atomically to ``path``, whose suffix names the format."""
+    from .files import atomic_path
+
+    path = check_figure_path(path)
     with atomic_path(path, suffix=path.suffix) as tmp:
         fig.savefig(tmp, dpi=dpi, format=path.suffix[1:].lower())
     return path

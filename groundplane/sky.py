@@ -155,7 +155,7 @@ class HorizonSky:
     phi_deg: np.ndarray
     t408: np.ndarray
     key: str
-    _weighted: dict = field(default_factory=dict, compare=False, repr=False)  # the float64 matrix, once made
+    _made: dict = field(default_factory=dict, compare=False, repr=False)  # the float64 matrix, once made
 
     @property
     def lst_hours(self) -> np.ndarray:
@@ -164,9 +164,9 @@ class HorizonSky:
     def matrix(self) -> np.ndarray:
         """``T408`` as a float64 [LST, pixel] matrix, made once and kept: every beam on this
         grid is then scored by one matrix product with its solid-angle-weighted gain."""
-        if "m" not in self._weighted:
-            self._weighted["m"] = self.t408.reshape(self.t408.shape[0], -1).astype(np.float64)
-        return self._weighted["m"]
+        if "m" not in self._made:
+            self._made["m"] = self.t408.reshape(self.t408.shape[0], -1).astype(np.float64)
+        return self._made["m"]
 
 
 _MEMORY: dict[str, HorizonSky] = {}
@@ -261,7 +261,7 @@ def _read_sky_cache(file: Path, shape: tuple[int, ...]) -> np.ndarray | None:
         ok = (t408.shape == shape and t408.dtype == np.float32 and bool(np.all(np.isfinite(t408)))
               and float(t408.min()) > 0.0 and float(t408.max()) < 1e6)
         if ok and not check.exists():  # written before checksums: plausible, so adopt it
-            check.write_text(json.dumps({"crc32": _crc(t408), "shape": list(t408.shape)}))
+            _write_checksum(file, t408)
         ok = ok and json.loads(check.read_text()).get("crc32") == _crc(t408)
     except (OSError, ValueError, TypeError, AttributeError, EOFError):
         ok = False
@@ -276,5 +276,9 @@ def _write_sky_cache(file: Path, t408: np.ndarray) -> None:
     with atomic_path(file, suffix=".npy.tmp") as tmp:
         with open(tmp, "wb") as fh:
             np.save(fh, t408)
+    _write_checksum(file, t408)
+
+
+def _write_checksum(file: Path, t408: np.ndarray) -> None:
     with atomic_path(file.with_suffix(".crc.json"), suffix=".json.tmp") as tmp:
         tmp.write_text(json.dumps({"crc32": _crc(t408), "shape": list(t408.shape)}))

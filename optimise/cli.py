@@ -80,24 +80,22 @@ def _setup_optimise(p: argparse.ArgumentParser):
 
 
 def _run_optimise(args: argparse.Namespace) -> int:
-    from dataclasses import replace
-
     from groundplane.plots import pyplot
     from groundplane.shapes import preset
 
     from .evaluate import Candidate, evaluate
     from .report import write_report
-    from .search import best_plane, mesh_spacing, optimise
+    from .search import best_plane, optimise
 
     settings = eval_settings(args)
     out = Path(args.out)
-    spacing = mesh_spacing(settings)
+    spacing = settings.spacing
     confirm = args.confirm_mesh if args.confirm_mesh is not None else (round(0.7 * spacing, 3) if spacing else None)
     res = optimise(args.shape, args.max_area, settings, out, algorithm=args.algorithm, budget=args.budget,
                    integer_values=tuple(args.integers) if args.integers else None, progress=True,
                    confirm_mesh=confirm or None, confirm_top=args.confirm_top)
     if res.best and res.best.get("confirmed_at"):  # the answer and the presets at the mesh it holds at
-        settings = replace(settings, solver=replace(settings.solver_settings(), spacing=res.best["confirmed_at"]))
+        settings = settings.with_spacing(res.best["confirmed_at"])
     rows = [evaluate(Candidate(name, plane=preset(name)), settings) for name in args.compare]
     if res.best:
         best = best_plane(args.shape, res.best)
@@ -107,10 +105,9 @@ def _run_optimise(args: argparse.Namespace) -> int:
 
             export_step(best, out / "best.step")
     _history_plot(pyplot(), res.history, out / "history.png", args.max_area)
-    args.mesh_used = (f"the {settings.solver_settings().spacing:g} m mesh"
-                      + (" (re-solved there from the search's best few)" if res.confirmed else "")
-                      if mesh_spacing(settings) else settings.engine)
-    verdict = _verdict(rows, args)
+    mesh = (f"the {settings.spacing:g} m mesh" + (" (re-solved there from the search's best few)"
+                                                 if res.confirmed else "")) if settings.spacing else settings.engine
+    verdict = _verdict(rows, args, mesh)
     paths = write_report(rows, out, title=f"Optimised {args.shape} under {args.max_area:g} m^2",
                          preamble=f"Command: `{invocation()}`. Settings: {settings.describe()}. "
                                   f"{len(res.history)} evaluations in history.jsonl. {verdict}")
@@ -119,13 +116,13 @@ def _run_optimise(args: argparse.Namespace) -> int:
     return 0 if res.best else 1
 
 
-def _verdict(rows, args) -> str:
+def _verdict(rows, args, mesh: str) -> str:
     ok = {r["name"]: r for r in rows if r.get("status") == "ok"}
     best = ok.get(f"optimised {args.shape}")
     if best is None:
         return "No feasible design was scored."
     text = (f"Best {args.shape}: {best['lst_averaged_fom_mk']:.1f} mK at {best['metal_area_m2']:.1f} m^2 "
-            f"({json.dumps(best['params'])}), solved at {args.mesh_used}.")
+            f"({json.dumps(best['params'])}), solved at {mesh}.")
     for name in args.compare:
         if name in ok:
             r = ok[name]

@@ -78,6 +78,17 @@ class EvalSettings:
     def solver_settings(self) -> Any:
         return self.solver if self.solver is not None else ENGINES[self.engine].settings_class()
 
+    @property
+    def spacing(self) -> float | None:
+        """The engine's plate-grid spacing (m), if it has one."""
+        return getattr(self.solver_settings(), "spacing", None)
+
+    def with_spacing(self, spacing: float) -> "EvalSettings":
+        """The same settings at another plate-grid spacing (a finer or coarser mesh)."""
+        from dataclasses import replace
+
+        return replace(self, solver=replace(self.solver_settings(), spacing=spacing))
+
     def make_solver(self, progress: bool = False, workers: int | None = None) -> Solver:
         return make_solver(self.engine, self.solver_settings(), workers=self.workers if workers is None else workers,
                            progress=progress)
@@ -150,7 +161,7 @@ def score(candidate: Candidate, beam: Beam, settings: EvalSettings, seconds: flo
         # diagnostic: the FoM once narrow-band structure (solver artefacts) is smoothed out
         # of G(nu); see results/spectral_artefacts.md
         "fom_smoothed_mk": smoothed_fom_mk(beam, settings),
-        "narrow_band_rms": narrow_band_rms(beam) if beam.freqs_mhz.size >= 2 * SMOOTHING_DEGREE + 1 else None,
+        "narrow_band_rms": narrow_band_rms(beam, SMOOTHING_DEGREE),
         "fom_mk": (result.fom * 1e3).round(4).tolist(),
         "lst_hours": result.lst_hours.round(6).tolist(),
         "fit_freqs_mhz": result.freqs_mhz[result.fit_mask].tolist(),

@@ -155,29 +155,15 @@ def too_fine_for(plane: GroundPlane, spacing: float) -> str | None:
     return None
 
 
-def mesh_spacing(settings: EvalSettings) -> float | None:
-    """The engine's plate-grid spacing, if it has one."""
-    return getattr(settings.solver_settings(), "spacing", None)
-
-
 def _confirm(ev: "_Evaluator", settings: EvalSettings, out: Path, spacing: float, top: int,
              progress: bool) -> list[dict[str, Any]]:
     """Re-solve the ``top`` best distinct designs of the search at ``spacing`` (resumable:
     confirm.jsonl), so the answer is one that holds at a finer mesh than the search used."""
-    from dataclasses import replace
-
-    fine = replace(settings, solver=replace(settings.solver_settings(), spacing=spacing))
+    fine = settings.with_spacing(spacing)
     done = {History.key(r["integer"], r["x"]): r for r in read_jsonl(out / "confirm.jsonl")}
-    ok = sorted((r for r in ev.hist.rows if r["status"] == "ok" and r["area_m2"] <= ev.max_area * (1 + 1e-9)),
-                key=lambda r: r["fom_mk"])
-    picked, seen = [], set()
-    for r in ok:
-        k = History.key(r["integer"], r["x"])
-        if k not in seen:
-            seen.add(k)
-            picked.append(r)
-        if len(picked) == top:
-            break
+    # history rows are distinct designs already (a replayed x is never added twice)
+    picked = sorted((r for r in ev.hist.rows if r["status"] == "ok" and r["area_m2"] <= ev.max_area * (1 + 1e-9)),
+                    key=lambda r: r["fom_mk"])[:top]
     rows = []
     for i, r in enumerate(picked, 1):
         k = History.key(r["integer"], r["x"])
@@ -289,7 +275,7 @@ class _Evaluator:
             plane = self.fam.build(x, n)
         except ShapeError as exc:
             return {"status": "invalid", "fom_mk": None, "error": str(exc)}
-        spacing = mesh_spacing(self.settings)
+        spacing = self.settings.spacing
         if spacing and (why := too_fine_for(plane, spacing)):  # the search would exploit the model
             return {"status": "invalid", "fom_mk": None, "error": why}
         if self.progress:

@@ -6,7 +6,6 @@ import json
 from pathlib import Path
 
 from .. import shapes as sh
-from ..errors import UserInputError
 from ..fom import FomSettings
 from ..options import add_options, from_args
 from . import add_shape_options, command, shape_from_args
@@ -39,13 +38,9 @@ def _run_fom(args: argparse.Namespace) -> int:
     from ..fom import chromaticity_report, figure_of_merit
 
     if args.plot:
-        from ..files import check_output
-        from ..plots import FIGURE_SUFFIXES
+        from ..plots import check_figure_path
 
-        check_output(args.plot)
-        if Path(args.plot).suffix.lower() not in FIGURE_SUFFIXES:
-            raise UserInputError(f"--plot {args.plot}: a figure file needs one of the suffixes "
-                                 f"{', '.join(FIGURE_SUFFIXES)}")
+        check_figure_path(args.plot)  # before any work
     beam = Beam.from_file(args.paths, args.format)
     if args.smooth_frequency:
         beam = beam.frequency_smoothed(args.smooth_frequency)

@@ -26,11 +26,7 @@ DESIGN_STUDY = list(paper.TABLE3_FOM_MK.items())  # (preset, paper FoM mK), in t
 @study("design-study", "the paper's Table 3: nine ground planes, their FoM and conclusions (i)-(iii)",
        uses_settings=True)
 def _run(out: Path, settings: EvalSettings, command: str, compare_mesh: float | None = None) -> None:
-    from dataclasses import replace
-
-    compare = None
-    if compare_mesh is not None:
-        compare = replace(settings, solver=replace(settings.solver_settings(), spacing=compare_mesh))
+    compare = None if compare_mesh is None else settings.with_spacing(compare_mesh)
     for t in design_study(settings, out, command, progress=True, compare=compare):
         print(f"{t['preset']:16s} paper {t['paper_fom_mk']:6.0f}  ours {t['our_fom_mk']}")
 
@@ -273,8 +269,7 @@ def _mesh_change(table: list[dict], other: list[dict] | None, i: int) -> float |
 
 def _mesh_label(settings: EvalSettings) -> str:
     """'0.7 m' for a wire-grid engine; the engine's name for one without a plate spacing."""
-    spacing = getattr(settings.solver_settings(), "spacing", None)
-    return f"{spacing:g} m" if spacing is not None else settings.engine
+    return f"{settings.spacing:g} m" if settings.spacing is not None else settings.engine
 
 
 def _arrow(a: str | None, b: str) -> str:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
@@ -28,7 +29,8 @@ class SolveSettings:
 
     engine: str = option("nec", "EM engine")
     freqs_mhz: tuple[float, ...] = option(DEFAULT_FREQS_MHZ, "frequencies (MHz): LO:HI:STEP (inclusive), a comma "
-                                          "list, or fit-band (55:97:1, all the FoM uses) (default 40:100:1)", flag="--freqs", parse=parse_freqs)
+                                          "list, or fit-band (55:97:1, all the FoM uses) (default 40:100:1)",
+                                          flag="--freqs", parse=parse_freqs)
     workers: int = option(2, "parallel solver processes (0: in this process)")
 
     def __post_init__(self) -> None:
@@ -85,7 +87,6 @@ def worker_init(parent_pid: int | None = None) -> None:
 
 def _die_with_parent(parent_pid: int) -> None:
     import signal
-    import sys
     import threading
 
     if sys.platform.startswith("linux"):  # the kernel kills us when the parent goes (no library does this)
@@ -244,8 +245,6 @@ class FrequencySolver:
                     if attempt == 2:
                         raise SolveError(f"{design.label()}: a {self.name} worker process died twice "
                                          f"({len(left)} frequencies unsolved; out of memory?)") from exc
-                    import sys
-
                     print(f"{design.label()}: a {self.name} worker process died; retrying the {len(left)} "
                           "unsolved frequencies once", file=sys.stderr)
         except SolveError:

@@ -19,8 +19,8 @@ NEC-2 input deck. Pure geometry (numpy, shapely): no NEC engine is needed here.
   bounding box are dropped (they would only graze its extreme vertices), and a merged
   mesh in which wires overlap or touch away from their ends is re-noded. Every mesh is
   checked before NEC sees it (:func:`check_wire_grid`). The plate sits ``plate_height``
-  above the soil (5 mm by default, wires of 1.6 mm radius): NEC-2 cannot put wires on the
-  interface; wires must stay 3 radii up.
+  above the soil (as low as NEC-2 allows: it cannot put wires on the interface, and they
+  must stay 3 radii up; the defaults and why are with ``NecSettings``).
 * An optional finer grid under the antenna (``refine_centre``) targets where the near
   field is strongest; it is off by default.
 """
@@ -47,8 +47,8 @@ class NecSettings:
     # The plate lies on the soil (SPEC section 2); NEC-2 needs its wires >= 3 radii above the
     # interface. Defaults chosen by `groundplane study plate-model` (results/plate_model.md),
     # not by the paper's numbers: the lowest height at which halving it again moves the FoM
-    # of square-10 by about 5 % (r = 1 mm: 2 / 1 / 0.5 / 0.3 cm -> 313 / 267 / 243 / 231 mK),
-    # with the thickest wire that height allows (r = h / 3; thicker wires leak less into the soil).
+    # of square-10 by about 5 %, with the thickest wire that height allows (r = h / 3;
+    # thicker wires leak less into the soil).
     plate_wire_radius: float = option(0.0016, "plate wire radius (m)", flag="--wire-radius")
     plate_height: float = option(0.005, "plate height above the soil (m)")
     blade_cells: tuple[int, int] = option((12, 10), "blade panel grid cells along and across the axis",
@@ -207,6 +207,7 @@ def fold_rotation(model: NecModel) -> NecModel | None:
     or None when the wires are not invariant under that rotation (or a wire maps onto itself)."""
     if model.sections != 1 or len(model.wires) % 2:
         return None
+
     def rot(p: tuple[float, float, float]) -> tuple[float, float, float]:
         return (-p[0], -p[1], p[2])
 

@@ -35,7 +35,8 @@ from .mesh import NecModel, NecSettings, build_model, pec_reference_model
 
 MODEL_VERSION = 2  # bump when the model changes: the cache key includes it
 # 2: split feed (two half-gap segments, V/2 each) for the GR symmetry; far field on a coarse
-#    grid interpolated to 1 deg; the blade turned (0.964 m along the axis, SPEC section 1)
+#    grid interpolated to 1 deg; the blade turned (0.964 m along the axis, SPEC section 1);
+#    symmetric plate meshes (node merging decided on the folded quadrant)
 
 
 def matrix_bytes(model: NecModel) -> int:
