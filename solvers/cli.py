@@ -49,7 +49,8 @@ def solve_options_from_mapping(values: Mapping[str, Any], where: str) -> tuple[S
 def _setup_solve(p: argparse.ArgumentParser):
     add_shape_options(p, required=False)
     p.add_argument("--ground", choices=["soil", "pec"], default="soil",
-                   help="lossy soil under the plate (default) or infinite PEC ground with no plate")
+                   help="lossy soil under the plate (default), or infinite PEC ground: the blade alone, or above "
+                        "a plate at --plate-height when a shape is given (the engines' common case)")
     add_solve_options(p)
     p.add_argument("--no-cache", action="store_true", help="neither read nor write the beam cache")
     p.add_argument("--deck", metavar="FILE.nec", help="also write the NEC-2 input deck")
@@ -65,9 +66,7 @@ def _run_solve(args: argparse.Namespace) -> int:
     plane = shape_from_args(args)
     soil, solve, model_settings = solve_options(args)
     if args.ground == "pec":
-        if plane is not None:
-            raise CLIError("--ground pec solves the blade over infinite perfect ground: give no shape")
-        design = Design(None, InfinitePEC())
+        design = Design(plane, InfinitePEC())
     else:
         if plane is None:
             raise CLIError("a solve over soil needs a ground plane: --preset NAME or a shape (or use --ground pec)")
@@ -88,6 +87,8 @@ def _run_solve(args: argparse.Namespace) -> int:
     beam = solver.solve(design, solve.freqs_mhz)
     out = beam.save(args.output)
     secs = sum(beam.meta.get("seconds_per_frequency", []))
-    print(f"wrote {out}{note}: {design.label()}, {beam.meta.get('n_segments', '?')} segments, {len(solve.freqs_mhz)} "
+    size = (f"{beam.meta['n_segments']} segments" if "n_segments" in beam.meta
+            else f"{beam.meta.get('n_unknowns', '?')} unknowns")
+    print(f"wrote {out}{note}: {design.label()}, {size}, {len(solve.freqs_mhz)} "
           f"frequencies ({secs:.0f} s of solver time; cache key {beam.meta['cache_key']})")
     return 0

@@ -20,7 +20,7 @@ import numpy as np
 from groundplane.errors import EngineError, SolveError
 from groundplane.files import atomic_path
 
-from ..base import process_pool, upper_mean_gain
+from ..base import process_pool, to_one_degree, upper_mean_gain
 from .mesh import NecModel
 
 C_MHZ_M = 299.792458
@@ -125,36 +125,6 @@ def radiation_pattern(model: NecModel, freq_mhz: float, n_phi: int, step: int = 
     g = 10.0 ** (db / 10.0)
     g[db <= -990] = 0.0  # NEC's "no field" marker (theta = 90 over ground)
     return g if step == 1 else to_one_degree(g, step, quadrant=n_phi == 91)
-
-
-def to_one_degree(g: np.ndarray, step: int, quadrant: bool) -> np.ndarray:
-    """A [theta, phi] gain grid every ``step`` deg -> every 1 deg, by a bicubic
-    interpolating spline (scipy) on the grid padded with its own symmetries, so the
-    ends (zenith, phi = 0/90 or the phi wrap) are interior points of the spline.
-
-    ``quadrant``: phi 0..90 of a pattern symmetric about both vertical planes; else phi
-    0..360-step. Either way G(-theta, phi) = G(theta, phi + 180)."""
-    from scipy.interpolate import RectBivariateSpline
-
-    pad = 3
-    th = np.arange(g.shape[0]) * step
-    ph = np.arange(g.shape[1]) * step
-    if quadrant:  # G(theta, -phi) = G(theta, phi), G(theta, 90 + phi) = G(theta, 90 - phi), G(-theta) = G(theta)
-        gp = np.concatenate([g[:, pad:0:-1], g, g[:, -2:-2 - pad:-1]], axis=1)
-        gp = np.concatenate([gp[pad:0:-1], gp], axis=0)
-        out_phi = np.arange(91.0)
-    else:  # periodic in phi; G(-theta, phi) = G(theta, phi + 180)
-        def wrap(a: np.ndarray) -> np.ndarray:
-            return np.concatenate([a[:, -pad:], a, a[:, :pad]], axis=1)
-
-        gp = wrap(g)
-        gp = np.concatenate([wrap(np.roll(g, -(g.shape[1] // 2), axis=1))[pad:0:-1], gp], axis=0)
-        out_phi = np.arange(360.0)
-    th_p = np.concatenate([-th[pad:0:-1], th])
-    ph_p = np.concatenate([-ph[pad:0:-1] if quadrant else ph[-pad:] - 360.0, ph,
-                           (2 * ph[-1] - ph[-2:-2 - pad:-1]) if quadrant else ph[:pad] + 360.0])
-    spline = RectBivariateSpline(th_p, ph_p, gp, kx=3, ky=3, s=0)
-    return np.clip(spline(np.arange(91.0), out_phi), 0.0, None)
 
 
 def calibration_factor(ref_model: NecModel, freq: float, step: int, store: str | None = None) -> float:

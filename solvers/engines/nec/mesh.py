@@ -43,14 +43,15 @@ from groundplane.shapes import GroundPlane
 class NecSettings:
     """How a design is discretised for NEC-2 (lengths in metres)."""
 
-    spacing: float = option(0.5, "plate wire-grid spacing (m)", flag="--mesh", metavar="SPACING")
+    spacing: float = option(0.5, "plate mesh spacing (m): NEC wire-grid cell, surface-engine triangle size",
+                            flag="--mesh", metavar="SPACING")
     # The plate lies on the soil (SPEC section 2); NEC-2 needs its wires >= 3 radii above the
     # interface. Defaults chosen by `groundplane study plate-model` (results/plate_model.md),
     # not by the paper's numbers: the lowest height at which halving it again moves the FoM
     # of square-10 by about 5 %, with the thickest wire that height allows (r = h / 3;
     # thicker wires leak less into the soil).
     plate_wire_radius: float = option(0.0016, "plate wire radius (m)", flag="--wire-radius")
-    plate_height: float = option(0.005, "plate height above the soil (m)")
+    plate_height: float = option(0.005, "plate height above the ground (m; the surface engine's default is 0.05)")
     blade_cells: tuple[int, int] = option((12, 10), "blade panel grid cells along and across the axis",
                                           metavar=("NX", "NY"))
     blade_wire_radius: float = option(0.002, "blade wire radius (m)")
@@ -411,11 +412,12 @@ def _is_corner(poly, p: np.ndarray) -> bool:
 def build_model(design: Design, settings: NecSettings) -> NecModel:
     """The full NEC model of a design."""
     if isinstance(design.ground, InfinitePEC):
-        if design.plane is not None:
-            raise SolveError(f"{design.label()}: a plate on infinite PEC ground does nothing; drop the shape")
-        return pec_reference_model(design, settings)
-    assert isinstance(design.ground, Soil)
-    model = NecModel(ground="soil", eps_r=design.ground.eps_r, sigma=design.ground.sigma)
+        if design.plane is None:
+            return pec_reference_model(design, settings)
+        model = NecModel(ground="pec")  # a plate above perfect ground (the cross-engine case)
+    else:
+        assert isinstance(design.ground, Soil)
+        model = NecModel(ground="soil", eps_r=design.ground.eps_r, sigma=design.ground.sigma)
     zp = settings.plate_height
     edges = plate_edges(design.plane, settings.spacing, settings.merge_fraction, settings.refine_half_width,
                         settings.refine_factor)

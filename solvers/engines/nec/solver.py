@@ -94,7 +94,8 @@ class NecSolver(FrequencySolver):
         n_phi = 91 if symmetric else 360
         ref, store = None, None
         if self.settings.gain_calibration == "pec":
-            ref = model if isinstance(design.ground, InfinitePEC) else pec_reference_model(design, self.settings)
+            bare = design.plane is None  # the design *is* the blade over PEC: its own calibration
+            ref = model if bare else pec_reference_model(design, self.settings)
             if ref is not model and self.use_cache:
                 store = str(self._calibration_store(ref))
         label = f"{design.plane.describe() if design.plane else 'blade over PEC'} ({model.n_segments} seg)"

@@ -1,0 +1,90 @@
+"""The surface engine as a :class:`~solvers.engines.base.FrequencySolver`: a design meshed
+into triangles (``mesh.py``), solved by the RWG EFIE over infinite PEC ground (``rwg.py``)
+one frequency per worker process, with the same content-keyed, per-frequency resumable
+cache as NEC. No gain calibration: over PEC the model conserves energy (mean gain 2 over
+the upper hemisphere, recorded per frequency as ``upper_mean_gain``)."""
+from __future__ import annotations
+
+from importlib import metadata
+from typing import ClassVar
+
+import numpy as np
+
+from groundplane.design import Design, InfinitePEC
+from groundplane.errors import SettingsError, SolveError
+
+from ..base import FrequencySolver, Plan, register_engine, to_one_degree, upper_mean_gain
+from .mesh import SurfaceSettings, build_mesh
+from .rwg import Problem, TriMesh, gain_pattern, rwg_basis, solve
+
+MODEL_VERSION = 1  # bump when the model changes: the cache key includes it
+FAR_FIELD_STEP = 3  # deg; interpolated bicubically to 1 deg (as NEC's far field)
+
+
+def check_memory(n_unknowns: int, n_triangles: int, processes: int, label: str) -> None:
+    """Refuse, before any work, a mesh whose matrices do not fit in memory: Z is N x N and
+    the assembly keeps three T x N products (complex doubles)."""
+    from ..nec.solver import available_memory_bytes
+
+    need = 16 * (n_unknowns ** 2 * 2 + 3 * n_triangles * n_unknowns) * processes
+    have = available_memory_bytes()
+    if have is not None and need > 0.8 * have:
+        raise SettingsError(f"{label}: {n_unknowns} unknowns need about {need / 2**30:.1f} GiB on {processes} "
+                            f"process(es); {have / 2**30:.1f} GiB is available. Use a coarser --mesh or "
+                            "--blade-cells, or fewer --workers.")
+
+
+def solve_frequency(payload: tuple, freq_mhz: float) -> tuple[np.ndarray, dict[str, float]]:
+    """Worker job: the gain pattern [91, n_phi] at one frequency, the input impedance and
+    the energy check (mean gain over the upper hemisphere; 2 for a lossless model)."""
+    mesh, ground, n_phi, near_factor = payload
+    prob = Problem(mesh, rwg_basis(mesh), ground, near_factor)
+    sol = solve(prob, freq_mhz * 1e6)
+    step = FAR_FIELD_STEP
+    phis = np.arange(0.0, 91.0 if n_phi == 91 else 360.0, step)
+    g = to_one_degree(gain_pattern(prob, sol, np.arange(0.0, 91.0, step), phis), step, quadrant=n_phi == 91)
+    if not np.all(np.isfinite(g)) or sol.input_power <= 0:
+        raise SolveError(f"surface engine: non-physical solution at {freq_mhz} MHz (input power {sol.input_power:g} W)")
+    zin = sol.input_impedance
+    return g, {"input_impedance_re": float(zin.real), "input_impedance_im": float(zin.imag),
+               "upper_mean_gain": upper_mean_gain(g)}
+
+
+@register_engine
+class SurfaceSolver(FrequencySolver):
+    """Solve designs over infinite PEC ground with the surface-current (RWG) engine."""
+
+    name: ClassVar[str] = "surface"
+    settings_class: ClassVar[type] = SurfaceSettings
+    model_version: ClassVar[int] = MODEL_VERSION
+
+    def engine_identity(self) -> dict[str, str]:
+        deps = {}
+        for dist in ("numpy", "scipy", "triangle"):
+            try:
+                deps[dist] = metadata.version(dist)
+            except metadata.PackageNotFoundError:
+                deps[dist] = "?"
+        return {"engine": "groundplane-rwg", "version": str(MODEL_VERSION), **deps}
+
+    def check(self, design: Design) -> None:
+        if not isinstance(design.ground, InfinitePEC):
+            raise SettingsError(f"{design.label()}: the surface engine solves over infinite PEC ground only (image "
+                                "theory); over soil use --engine nec")
+
+    def plan(self, design: Design) -> Plan:
+        self.check(design)
+        try:
+            mesh: TriMesh = build_mesh(design, self.settings)
+            rwg = rwg_basis(mesh)
+        except (SolveError, SettingsError):
+            raise
+        except Exception as exc:  # triangle/shapely trouble: name the candidate
+            raise SolveError(f"{design.label()}: could not mesh the model ({exc})") from exc
+        check_memory(rwg.n, len(mesh.tris), max(1, self.workers), design.label())
+        symmetric = design.plane is None or all(design.plane.mirror_symmetry.values())
+        n_phi = 91 if symmetric else 360
+        what = design.plane.describe() if design.plane else "blade"
+        label = f"{what} over PEC ({rwg.n} unknowns)"
+        meta = {"n_unknowns": rwg.n, "n_triangles": len(mesh.tris)}
+        return Plan(solve_frequency, (mesh, "pec", n_phi, self.settings.near_factor), n_phi, meta, label)
