@@ -151,7 +151,7 @@ def plate_mesh(plane: GroundPlane, z: float, spacing: float) -> tuple[np.ndarray
     """The ground plane's triangles at height ``z`` (a quadrant mirrored when it can be)."""
     from shapely.geometry import box
 
-    outline = plane.outline
+    outline = plane.outline()
     if all(plane.mirror_symmetry.values()):
         big = 2 * plane.extent + 1.0
         quadrant = outline.intersection(box(0.0, 0.0, big, big))

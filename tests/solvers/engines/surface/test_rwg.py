@@ -1,0 +1,138 @@
+"""The surface engine's physics: closed-form integrals, the strip dipole against theory
+and NEC, energy balance over PEC, symmetry, and mesh convergence (small meshes: CI)."""
+import numpy as np
+import pytest
+
+from groundplane.design import Design, InfinitePEC
+from solvers.engines.base import upper_mean_gain
+from solvers.engines.surface.mesh import SurfaceSettings, build_mesh, strip_dipole_mesh
+from solvers.engines.surface.rwg import Problem, gain_pattern, potential_integrals, rwg_basis, solve
+
+STRIP_LENGTH, STRIP_WIDTH = 1.9986, 0.01  # half a wavelength at 75 MHz, 1 cm wide
+
+
+def _fine_quadrature(verts: np.ndarray, n: int = 60):
+    """Points and weights of the 7-point rule on n^2 sub-triangles (a reference to ~1e-6)."""
+    from solvers.engines.surface.rwg import _Q7
+
+    bary, w = _Q7
+    pts, wts = [], []
+    a, b, c = verts
+    for i in range(n):
+        for j in range(n - i):
+            for corners in (((i, j), (i + 1, j), (i, j + 1)), ((i + 1, j), (i + 1, j + 1), (i, j + 1))):
+                if corners[1][0] + corners[1][1] > n:
+                    continue
+                p = np.array([a + (u / n) * (b - a) + (v / n) * (c - a) for u, v in corners])
+                area = 0.5 * abs(np.cross(np.r_[p[1] - p[0], 0], np.r_[p[2] - p[0], 0])[2])
+                pts.append(bary @ p)
+                wts.append(w * area)
+    return np.concatenate(pts), np.concatenate(wts)
+
+
+@pytest.mark.parametrize("rho,d,tol", [((0.4, 0.3), 0.2, 1e-6), ((2.0, 1.0), 0.0, 1e-6), ((1.5, -0.3), 0.5, 1e-6),
+                                       ((0.7, 0.6), 0.0, 1e-5),  # in the plane, just outside an edge
+                                       ((0.45, 0.35), 0.05, 2e-3), ((0.7, 0.1), 0.0, 2e-3)])  # near-singular:
+def test_closed_form_potential_integrals_match_quadrature(rho, d, tol):  # the reference's own limit
+    verts = np.array([[0.0, 0.0], [1.0, 0.2], [0.3, 0.9]])
+    pts, w = _fine_quadrature(verts)
+    rho = np.array(rho)
+    r = np.sqrt(((pts - rho) ** 2).sum(1) + d * d)
+    i, j = potential_integrals(rho, np.array(d), verts)
+    assert i == pytest.approx((w / r).sum(), rel=tol)
+    assert j == pytest.approx((w[:, None] * (pts - rho) / r[:, None]).sum(0), rel=tol, abs=tol)
+    i2, j2 = potential_integrals(rho, np.array(d), verts[::-1])  # orientation does not matter
+    assert i2 == pytest.approx(i) and j2 == pytest.approx(j)
+
+
+def _strip(n_along: int = 80):
+    mesh = strip_dipole_mesh(STRIP_LENGTH, STRIP_WIDTH, n_along)
+    prob = Problem(mesh, rwg_basis(mesh), "free")
+    return prob, solve(prob, 75e6)
+
+
+def test_strip_dipole_impedance_and_pattern_against_theory():
+    prob, sol = _strip()
+    # NEC-2 (wire of radius w/4, the equivalent radius of a thin strip): 84.4 + j48.2 ohm
+    assert sol.input_impedance.real == pytest.approx(84.4, abs=1.5)
+    assert sol.input_impedance.imag == pytest.approx(48.2, abs=4.0)
+    psi = np.arange(0.0, 181.0)
+    g = gain_pattern(prob, sol, psi, np.array([0.0, 90.0]))  # x-z plane (phi 0) and y-z plane (phi 90)
+    w = np.sin(np.radians(psi))
+    full = gain_pattern(prob, sol, psi, np.arange(0.0, 360.0, 4.0))
+    assert (full * w[:, None]).sum() / (w.sum() * full.shape[1]) == pytest.approx(1.0, abs=2e-3)  # lossless
+    # half-wave dipole along x: G = 1.64 [cos(pi/2 cos a) / sin a]^2, a the angle from the axis;
+    # in the x-z plane cos a = sin theta
+    off_axis = (np.abs(psi - 90) > 5) & (psi > 5) & (psi < 175)
+    th = np.radians(psi[off_axis])
+    theory = 1.641 * (np.cos(np.pi / 2 * np.sin(th)) / np.cos(th)) ** 2
+    assert np.abs(g[off_axis, 0] - theory).max() < 0.02
+    assert np.abs(g[:, 1] - 1.641).max() < 0.02  # omnidirectional about its axis
+
+
+def test_strip_dipole_against_nec():
+    """The same dipole as a NEC-2 wire (radius w/4) in a NEC worker process."""
+    from solvers.engines.nec.engine import engine_call
+
+    nec = engine_call(_nec_dipole, STRIP_LENGTH, STRIP_WIDTH / 4)
+    _, sol = _strip()
+    assert abs(sol.input_impedance - nec) < 4.0, (sol.input_impedance, nec)
+
+
+def _nec_dipole(length: float, radius: float) -> complex:
+    from PyNEC import nec_context
+
+    c = nec_context()
+    c.get_geometry().wire(1, 41, -length / 2, 0, 0, length / 2, 0, 0, radius, 1.0, 1.0)
+    c.geometry_complete(0)
+    c.fr_card(0, 1, 75.0, 0)
+    c.ex_card(0, 1, 21, 0, 1.0, 0, 0, 0, 0, 0)
+    c.xq_card(0)
+    ip = c.get_input_parameters(0)
+    return complex(ip.get_impedance()[0])
+
+
+def _blade(cells=(6, 6), freq=75e6, plane=None, **kw):
+    mesh = build_mesh(Design(plane, InfinitePEC()), SurfaceSettings(blade_cells=cells, **kw))
+    prob = Problem(mesh, rwg_basis(mesh), "pec")
+    return prob, solve(prob, freq)
+
+
+@pytest.mark.parametrize("freq", [40e6, 100e6])
+def test_blade_over_pec_conserves_energy(freq):
+    prob, sol = _blade(freq=freq)
+    g = gain_pattern(prob, sol, np.arange(91.0), np.arange(91.0))
+    assert upper_mean_gain(g) == pytest.approx(2.0, abs=1e-3)
+    assert np.all(g[90] < 1e-20)  # nothing along perfect ground
+
+
+def test_blade_pattern_has_the_blade_symmetry():
+    prob, sol = _blade(cells=(5, 7))
+    phi = np.arange(0.0, 360.0, 5.0)
+    g = gain_pattern(prob, sol, np.arange(0.0, 91.0, 5.0), phi)
+    mirror_y = g[:, (-np.arange(72)) % 72]  # phi -> -phi
+    mirror_x = g[:, (36 - np.arange(72)) % 72]  # phi -> 180 - phi
+    assert np.abs(mirror_y - g).max() < 1e-9 * g.max()
+    assert np.abs(mirror_x - g).max() < 1e-9 * g.max()
+    mesh = prob.mesh
+    assert np.abs(np.sort(mesh.nodes[:, 0]) + np.sort(mesh.nodes[:, 0])[::-1]).max() < 1e-12
+
+
+def test_zenith_gain_converges_with_the_blade_mesh():
+    zen = []
+    for cells in ((4, 4), (8, 6), (14, 12)):
+        prob, sol = _blade(cells=cells, freq=100e6)
+        zen.append(gain_pattern(prob, sol, np.array([0.0]), np.array([0.0]))[0, 0])
+    assert abs(zen[2] - zen[1]) < abs(zen[1] - zen[0])
+    assert abs(zen[2] - zen[1]) / zen[2] < 0.015
+
+
+def test_feed_orientation_and_triangle_order_do_not_matter():
+    from solvers.engines.surface.rwg import TriMesh
+
+    prob, sol = _blade(cells=(4, 4))
+    m = prob.mesh
+    perm = np.random.default_rng(0).permutation(len(m.tris))
+    shuffled = TriMesh(m.nodes, m.tris[perm][:, ::-1], m.feed_edges[:, ::-1])
+    p2 = Problem(shuffled, rwg_basis(shuffled), "pec")
+    assert solve(p2, 75e6).input_impedance == pytest.approx(sol.input_impedance, rel=1e-9)
