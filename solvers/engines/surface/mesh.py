@@ -135,7 +135,8 @@ def _triangulate(poly, spacing: float) -> tuple[np.ndarray, np.ndarray]:
     """Quality triangles (min angle 30 deg, about ``spacing`` on a side) filling ``poly``."""
     import triangle
 
-    ring = np.asarray(poly.exterior.coords)[:-1]
+    ring = np.round(np.asarray(poly.exterior.coords)[:-1], 9) + 0.0  # cut points land 1e-16 off the axes
+    ring = ring[np.any(ring != np.roll(ring, 1, axis=0), axis=1)]  # and may repeat a vertex
     pts: list[np.ndarray] = []
     for a, b in zip(ring, np.roll(ring, -1, axis=0)):
         n = max(1, math.ceil(np.hypot(*(b - a)) / spacing - 1e-9))

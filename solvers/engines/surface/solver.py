@@ -15,7 +15,7 @@ from groundplane.errors import SettingsError, SolveError
 
 from ..base import FrequencySolver, Plan, register_engine, to_one_degree, upper_mean_gain
 from .mesh import SurfaceSettings, build_mesh
-from .rwg import Problem, TriMesh, gain_pattern, rwg_basis, solve
+from .rwg import MirrorSymmetry, Problem, TriMesh, gain_pattern, rwg_basis, solve
 
 MODEL_VERSION = 1  # bump when the model changes: the cache key includes it
 FAR_FIELD_STEP = 3  # deg; interpolated bicubically to 1 deg (as NEC's far field)
@@ -23,7 +23,8 @@ FAR_FIELD_STEP = 3  # deg; interpolated bicubically to 1 deg (as NEC's far field
 
 def check_memory(n_unknowns: int, n_triangles: int, processes: int, label: str) -> None:
     """Refuse, before any work, a mesh whose matrices do not fit in memory: Z is N x N and
-    the assembly keeps three T x N products (complex doubles)."""
+    the assembly keeps three T x N products (complex doubles); a mirror-symmetric design
+    fills only a quarter of the rows, but the check assumes the full model."""
     from ..nec.solver import available_memory_bytes
 
     need = 16 * (n_unknowns ** 2 * 2 + 3 * n_triangles * n_unknowns) * processes
@@ -39,7 +40,8 @@ def solve_frequency(payload: tuple, freq_mhz: float) -> tuple[np.ndarray, dict[s
     the energy check (mean gain over the upper hemisphere; 2 for a lossless model)."""
     mesh, ground, n_phi, near_factor = payload
     prob = Problem(mesh, rwg_basis(mesh), ground, near_factor)
-    sol = solve(prob, freq_mhz * 1e6)
+    symmetry = MirrorSymmetry.of(mesh, prob.rwg) if n_phi == 91 else None  # exact, ~4x faster
+    sol = solve(prob, freq_mhz * 1e6, symmetry)
     step = FAR_FIELD_STEP
     phis = np.arange(0.0, 91.0 if n_phi == 91 else 360.0, step)
     g = to_one_degree(gain_pattern(prob, sol, np.arange(0.0, 91.0, step), phis), step, quadrant=n_phi == 91)

@@ -136,3 +136,27 @@ def test_feed_orientation_and_triangle_order_do_not_matter():
     shuffled = TriMesh(m.nodes, m.tris[perm][:, ::-1], m.feed_edges[:, ::-1])
     p2 = Problem(shuffled, rwg_basis(shuffled), "pec")
     assert solve(p2, 75e6).input_impedance == pytest.approx(sol.input_impedance, rel=1e-9)
+
+
+@pytest.mark.parametrize("preset_name", [None, "sawtooth-10-8"])
+def test_mirror_symmetric_solve_is_the_full_solve(preset_name):
+    from groundplane.shapes import preset
+    from solvers.engines.surface.rwg import MirrorSymmetry
+
+    plane = preset(preset_name) if preset_name else None
+    mesh = build_mesh(Design(plane, InfinitePEC()), SurfaceSettings(blade_cells=(4, 4), spacing=2.0))
+    prob = Problem(mesh, rwg_basis(mesh), "pec")
+    sym = MirrorSymmetry.of(mesh, prob.rwg)
+    assert sym is not None and len(sym.reps) < prob.n / 3
+    full, reduced = solve(prob, 60e6), solve(prob, 60e6, sym)
+    assert np.abs(full.currents - reduced.currents).max() < 1e-9 * np.abs(full.currents).max()
+
+
+def test_an_asymmetric_mesh_has_no_mirror_reduction():
+    from solvers.engines.surface.rwg import MirrorSymmetry, TriMesh
+
+    mesh = build_mesh(Design(None, InfinitePEC()), SurfaceSettings(blade_cells=(4, 4)))
+    nodes = mesh.nodes.copy()
+    nodes[np.argmax(nodes[:, 0])] += [0.01, 0.0, 0.0]  # one corner moved
+    moved = TriMesh(nodes, mesh.tris, mesh.feed_edges)
+    assert MirrorSymmetry.of(moved, rwg_basis(moved)) is None

@@ -1,0 +1,74 @@
+"""The surface engine as an engine: plate meshes, the cached solve, the CLI, refusals."""
+import numpy as np
+import pytest
+
+from groundplane.design import Design, InfinitePEC, Soil
+from groundplane.errors import SettingsError
+from groundplane.shapes import PRESETS, PolygonPlane, Star
+from solvers.engines import ENGINES, make_solver
+from solvers.engines.surface.mesh import SurfaceSettings, plate_mesh
+from solvers.engines.surface.rwg import TriMesh, rwg_basis
+
+
+@pytest.mark.parametrize("plane", [PRESETS["square-10"], PRESETS["plus-15"], PRESETS["sawtooth-20-16"],
+                                   Star(8, 6.0, 3.0), PolygonPlane(((-3, -2), (4, -1), (2, 3), (-2, 4)))])
+def test_plate_meshes_fill_the_outline_and_conform(plane):
+    nodes, tris = plate_mesh(plane, 0.05, 1.0)
+    mesh = TriMesh(nodes, tris)
+    assert mesh.areas.sum() == pytest.approx(plane.outline().area, rel=1e-9)
+    assert mesh.sizes.max() < 1.6  # about the requested spacing
+    rwg = rwg_basis(mesh)  # conforming: no edge shared by more than two triangles
+    boundary = 3 * len(tris) - 2 * rwg.n  # edges on the outline only
+    assert boundary * 1.0 == pytest.approx(plane.outline().length / 1.0, rel=0.6)
+
+
+def test_engine_is_registered_and_solves_with_the_shared_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path))
+    assert "surface" in ENGINES
+    solver = make_solver("surface", SurfaceSettings(blade_cells=(4, 4)), workers=0)
+    design = Design(None, InfinitePEC())
+    beam = solver.solve(design, [50.0, 80.0])
+    assert beam.gain.shape == (2, 91, 360)
+    assert np.allclose(beam.meta["upper_mean_gain"], 2.0, atol=2e-3)
+    assert beam.meta["n_unknowns"] > 0 and beam.meta["solver"] == "surface"
+    assert solver.cached(design, [50.0, 80.0]) is not None  # second call: from the cache
+    assert solver.cache_key(design, [50.0, 80.0]) != make_solver("nec").cache_key(design, [50.0, 80.0])
+
+
+def test_soil_is_refused_with_a_clear_error():
+    with pytest.raises(SettingsError, match="PEC ground only"):
+        make_solver("surface", workers=0).solve(Design(PRESETS["square-10"], Soil()), [50.0])
+
+
+@pytest.mark.parametrize("kw,match", [({"spacing": 0.0}, "spacing"), ({"plate_height": -1.0}, "plate height"),
+                                      ({"blade_cells": (1, 4)}, "blade_cells"), ({"edge_grading": 2.0}, "grading"),
+                                      ({"feed_width": 2.0}, "feed_width")])
+def test_impossible_settings_are_refused(kw, match):
+    with pytest.raises(SettingsError, match=match):
+        s = SurfaceSettings(**kw)
+        make_solver("surface", s, workers=0).solve(Design(None, InfinitePEC()), [50.0])
+
+
+def test_cli_solves_a_plate_over_pec_with_either_engine(tmp_path, monkeypatch, capsys):
+    from groundplane.beam import Beam
+    from groundplane.cli import main
+
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path / "cache"))
+    for engine in ("surface", "nec"):
+        out = tmp_path / f"{engine}.npz"
+        rc = main(["solve", "--engine", engine, "--ground", "pec", "square", "--side", "3", "--mesh", "1.0",
+                   "--plate-height", "0.05", "--blade-cells", "4", "4", "--freqs", "60,70", "--workers", "1",
+                   "-o", str(out)])
+        assert rc == 0, capsys.readouterr().err
+        assert Beam.load(out).gain.shape == (2, 91, 360)
+    a, b = Beam.load(tmp_path / "surface.npz"), Beam.load(tmp_path / "nec.npz")
+    assert np.abs(a.gain[:, 0, 0] / b.gain[:, 0, 0] - 1).max() < 0.15  # coarse models of the same plate
+    assert "unknowns" in capsys.readouterr().out
+
+
+def test_nec_deck_of_a_plate_over_pec_has_perfect_ground():
+    from solvers.engines.nec import NecSettings, build_model
+
+    model = build_model(Design(PRESETS["square-10"], InfinitePEC()), NecSettings(spacing=1.0, plate_height=0.05))
+    deck = model.to_deck([60.0])
+    assert "GN 1" in deck and model.n_segments > 200
