@@ -65,9 +65,16 @@ class EvalSettings:
     engine: str = "nec"
 
     def check_scorable(self) -> None:
-        """Refuse, before any solve, frequencies that the FoM could not score (they miss the
-        fit band or hold too few points in it for the fit)."""
+        """Refuse, before any solve, an engine that cannot solve candidates on soil and
+        frequencies that the FoM could not score (they miss the fit band or hold too few
+        points in it for the fit)."""
         from groundplane.fom import fit_band_mask
+
+        grounds = getattr(ENGINES[self.engine], "grounds", ("soil", "pec"))
+        if "soil" not in grounds:
+            raise UserInputError(f"--engine {self.engine} solves over infinite PEC ground only, and candidates here "
+                                 "lie on soil: use --engine nec (or `groundplane solve --engine "
+                                 f"{self.engine} --ground pec` for one design above PEC)")
 
         try:
             fit_band_mask(np.asarray(self.freqs_mhz, dtype=float), self.fom.fit_band_mhz, self.fom.n_terms)

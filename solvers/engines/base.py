@@ -190,6 +190,7 @@ class FrequencySolver:
     name: ClassVar[str] = ""
     settings_class: ClassVar[type] = object
     model_version: ClassVar[int] = 1
+    grounds: ClassVar[tuple[str, ...]] = ("soil", "pec")  # what the engine can put under a design
 
     def __init__(self, settings: Any = None, *, workers: int = 2, progress: bool = False,
                  use_cache: bool = True) -> None:

@@ -59,6 +59,7 @@ class SurfaceSolver(FrequencySolver):
     name: ClassVar[str] = "surface"
     settings_class: ClassVar[type] = SurfaceSettings
     model_version: ClassVar[int] = MODEL_VERSION
+    grounds: ClassVar[tuple[str, ...]] = ("pec",)
 
     def engine_identity(self) -> dict[str, str]:
         deps = {}

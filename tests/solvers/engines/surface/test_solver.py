@@ -72,3 +72,13 @@ def test_nec_deck_of_a_plate_over_pec_has_perfect_ground():
     model = build_model(Design(PRESETS["square-10"], InfinitePEC()), NecSettings(spacing=1.0, plate_height=0.05))
     deck = model.to_deck([60.0])
     assert "GN 1" in deck and model.n_segments > 200
+
+
+@pytest.mark.parametrize("argv", [["optimise", "--shape", "square", "--max-area", "100", "--budget", "2"],
+                                  ["study", "design-study"]])
+def test_commands_on_soil_refuse_the_surface_engine_before_solving(tmp_path, capsys, argv):
+    from groundplane.cli import main
+
+    rc = main([*argv, "--engine", "surface", "-o", str(tmp_path / "out")])
+    assert rc == 2
+    assert "PEC ground only" in capsys.readouterr().err
