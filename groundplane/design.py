@@ -37,31 +37,44 @@ class InfinitePEC:
 
 
 @dataclass(frozen=True)
+class FreeSpace:
+    """No ground at all: a plate (or the blade) alone in space. Not a site; the case in
+    which two engines can compare their models of a finite plate without a ground model."""
+
+
+@dataclass(frozen=True)
 class Design:
     """What one EM solve is of. ``plane`` is None over infinite PEC ground."""
 
     plane: GroundPlane | None
-    ground: Soil | InfinitePEC = field(default_factory=Soil)
+    ground: Soil | InfinitePEC | FreeSpace = field(default_factory=Soil)
     antenna: BladeDipole = EDGES_LOW_BAND
 
     def __post_init__(self) -> None:
-        if self.plane is None and not isinstance(self.ground, InfinitePEC):
+        if self.plane is None and isinstance(self.ground, Soil):
             raise SettingsError("a design over soil needs a ground-plane shape (or use ground=InfinitePEC())")
 
     def as_dict(self) -> dict[str, Any]:
-        g = {"type": "pec"} if isinstance(self.ground, InfinitePEC) else {"type": "soil", **asdict(self.ground)}
+        g = {"type": self.ground_kind} if not isinstance(self.ground, Soil) else {"type": "soil", **asdict(self.ground)}
         return {
             "plane": None if self.plane is None else to_dict(self.plane),
             "ground": g,
             "antenna": self.antenna.as_dict(),
         }
 
+    @property
+    def ground_kind(self) -> str:
+        """'soil', 'pec' or 'free' (what an engine must be able to put under the design)."""
+        return {Soil: "soil", InfinitePEC: "pec", FreeSpace: "free"}[type(self.ground)]
+
     def canonical(self) -> str:
         return json.dumps(self.as_dict(), sort_keys=True, default=float)
 
     def label(self) -> str:
+        where = {"pec": "over infinite PEC ground", "free": "in free space"}
         if self.plane is None:
-            return "blade dipole over infinite PEC ground"
+            return f"blade dipole {where.get(self.ground_kind, '')}"
         p = self.plane.describe()
-        g = "PEC" if isinstance(self.ground, InfinitePEC) else f"soil eps_r={self.ground.eps_r} sigma={self.ground.sigma}"
-        return f"{p} over {g}"
+        if isinstance(self.ground, Soil):
+            return f"{p} over soil eps_r={self.ground.eps_r} sigma={self.ground.sigma}"
+        return f"{p} {where[self.ground_kind]}"

@@ -48,9 +48,10 @@ def solve_options_from_mapping(values: Mapping[str, Any], where: str) -> tuple[S
 @command("solve", "solve a candidate with an EM engine (NEC-2 by default) and write the native beam file")
 def _setup_solve(p: argparse.ArgumentParser):
     add_shape_options(p, required=False)
-    p.add_argument("--ground", choices=["soil", "pec"], default="soil",
-                   help="lossy soil under the plate (default), or infinite PEC ground: the blade alone, or above "
-                        "a plate at --plate-height when a shape is given (the engines' common case)")
+    p.add_argument("--ground", choices=["soil", "pec", "free"], default="soil",
+                   help="lossy soil under the plate (default); infinite PEC ground: the blade alone, or above a "
+                        "plate at --plate-height when a shape is given; free: no ground at all (the engines' "
+                        "common cases)")
     add_solve_options(p)
     p.add_argument("--no-cache", action="store_true", help="neither read nor write the beam cache")
     p.add_argument("--deck", metavar="FILE.nec", help="also write the NEC-2 input deck")
@@ -59,7 +60,7 @@ def _setup_solve(p: argparse.ArgumentParser):
 
 
 def _run_solve(args: argparse.Namespace) -> int:
-    from groundplane.design import Design, InfinitePEC
+    from groundplane.design import Design, FreeSpace, InfinitePEC
 
     from .engines import make_solver
 
@@ -67,6 +68,8 @@ def _run_solve(args: argparse.Namespace) -> int:
     soil, solve, model_settings = solve_options(args)
     if args.ground == "pec":
         design = Design(plane, InfinitePEC())
+    elif args.ground == "free":
+        design = Design(plane, FreeSpace())
     else:
         if plane is None:
             raise CLIError("a solve over soil needs a ground plane: --preset NAME or a shape (or use --ground pec)")

@@ -71,8 +71,8 @@ def _row(c: Case, beam: Beam, ref: Beam | None) -> dict:
         "mean_gain_range": "-",
         "fom_vs_nec": "-", "zenith_vs_nec_max": "-",
     }
-    if "upper_mean_gain" in beam.meta:
-        m = np.asarray(beam.meta["upper_mean_gain"])
+    if "energy_balance" in beam.meta:
+        m = np.asarray(beam.meta["energy_balance"])
         row["mean_gain_range"] = f"{m.min():.4f}-{m.max():.4f}"
     if ref is not None:
         row["fom_vs_nec"] = f"{row['fom_mk'] / fom_mk(ref) - 1:+.1%}"

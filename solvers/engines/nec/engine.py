@@ -102,8 +102,9 @@ def context(model: NecModel, freq_mhz: float):
     c.geometry_complete(1)
     if model.ground == "soil":
         c.gn_card(2, 0, model.eps_r, model.sigma, 0, 0, 0, 0)
-    else:
+    elif model.ground == "pec":
         c.gn_card(1, 0, 0, 0, 0, 0, 0, 0)
+    # "free": no ground card (free space)
     c.fr_card(0, 1, float(freq_mhz), 0)
     for tag, volts in model.sources():
         c.ex_card(0, tag, 1, 0, float(volts), 0, 0, 0, 0, 0)

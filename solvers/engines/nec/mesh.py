@@ -143,7 +143,7 @@ class NecModel:
 
     wires: list[Wire] = field(default_factory=list)
     feeds: list[tuple[int, float, bool]] = field(default_factory=list)
-    ground: str = "soil"  # "soil" | "pec"
+    ground: str = "soil"  # "soil" | "pec" | "free"
     eps_r: float = 3.5
     sigma: float = 0.02
     sections: int = 1
@@ -172,7 +172,7 @@ class NecModel:
         if self.sections > 1:
             lines.append(f"GR {len(self.wires)} {self.sections}")
         lines.append("GE 1")
-        lines.append(f"GN 2 0 0 0 {self.eps_r:g} {self.sigma:g}" if self.ground == "soil" else "GN 1")
+        lines.append({"soil": f"GN 2 0 0 0 {self.eps_r:g} {self.sigma:g}", "pec": "GN 1", "free": "GN -1"}[self.ground])
         f = np.asarray(freqs_mhz, dtype=float)
         step = float(f[1] - f[0]) if f.size > 1 else 0.0
         lines.append(f"FR 0 {f.size} 0 0 {f[0]:g} {step:g}")
@@ -411,10 +411,13 @@ def _is_corner(poly, p: np.ndarray) -> bool:
 
 def build_model(design: Design, settings: NecSettings) -> NecModel:
     """The full NEC model of a design."""
-    if isinstance(design.ground, InfinitePEC):
+    if isinstance(design.ground, InfinitePEC) and design.plane is None:
+        return pec_reference_model(design, settings)
+    if not isinstance(design.ground, Soil):  # a plate above perfect ground or in free space (cross-engine cases)
+        model = NecModel(ground=design.ground_kind)
         if design.plane is None:
-            return pec_reference_model(design, settings)
-        model = NecModel(ground="pec")  # a plate above perfect ground (the cross-engine case)
+            add_blade(model, design.antenna, design.antenna.height, settings)
+            return _folded(model, settings)
     else:
         assert isinstance(design.ground, Soil)
         model = NecModel(ground="soil", eps_r=design.ground.eps_r, sigma=design.ground.sigma)

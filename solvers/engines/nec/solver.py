@@ -1,5 +1,6 @@
 """NEC-2 solver: the blade dipole over a wire-grid ground plane on lossy soil
-(Sommerfeld/Norton ground, GN 2) or over infinite perfect ground (GN 1), as a Beam.
+(Sommerfeld/Norton ground, GN 2), over infinite perfect ground (GN 1; the blade alone or
+above a plate), or in free space (GN -1; the cross-engine case), as a Beam.
 
 * Absolute gain: NEC's input power at this feed is too high for practical blade grids
   (mean gain over PEC below 2: ``groundplane study feed-calibration``; the level
@@ -79,7 +80,7 @@ class NecSolver(FrequencySolver):
         return engine.engine_info()
 
     def check(self, design: Design) -> None:
-        ground = "pec" if isinstance(design.ground, InfinitePEC) else "soil"
+        ground = design.ground_kind
         engine.check_engine(ground, allow_unverified=self.allow_unverified_engine, in_process=self.workers == 0)
 
     def plan(self, design: Design) -> Plan:
@@ -94,7 +95,7 @@ class NecSolver(FrequencySolver):
         n_phi = 91 if symmetric else 360
         ref, store = None, None
         if self.settings.gain_calibration == "pec":
-            bare = design.plane is None  # the design *is* the blade over PEC: its own calibration
+            bare = design.plane is None and isinstance(design.ground, InfinitePEC)  # its own calibration
             ref = model if bare else pec_reference_model(design, self.settings)
             if ref is not model and self.use_cache:
                 store = str(self._calibration_store(ref))

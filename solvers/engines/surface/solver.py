@@ -2,7 +2,8 @@
 into triangles (``mesh.py``), solved by the RWG EFIE over infinite PEC ground (``rwg.py``)
 one frequency per worker process, with the same content-keyed, per-frequency resumable
 cache as NEC. No gain calibration: over PEC the model conserves energy (mean gain 2 over
-the upper hemisphere, recorded per frequency as ``upper_mean_gain``)."""
+the upper hemisphere; radiated over input power is recorded per frequency as
+``energy_balance``, 1 for a lossless model, over PEC and in free space)."""
 from __future__ import annotations
 
 from importlib import metadata
@@ -10,14 +11,15 @@ from typing import ClassVar
 
 import numpy as np
 
-from groundplane.design import Design, InfinitePEC
+from groundplane.design import Design
 from groundplane.errors import SettingsError, SolveError
 
 from ..base import FrequencySolver, Plan, register_engine, to_one_degree, upper_mean_gain
 from .mesh import SurfaceSettings, build_mesh
 from .rwg import MirrorSymmetry, Problem, TriMesh, gain_pattern, rwg_basis, solve
 
-MODEL_VERSION = 1  # bump when the model changes: the cache key includes it
+MODEL_VERSION = 2  # bump when the model changes: the cache key includes it
+# 2: energy_balance (radiated / input power) recorded instead of the upper-hemisphere mean gain
 FAR_FIELD_STEP = 3  # deg; interpolated bicubically to 1 deg (as NEC's far field)
 
 
@@ -44,12 +46,19 @@ def solve_frequency(payload: tuple, freq_mhz: float) -> tuple[np.ndarray, dict[s
     sol = solve(prob, freq_mhz * 1e6, symmetry)
     step = FAR_FIELD_STEP
     phis = np.arange(0.0, 91.0 if n_phi == 91 else 360.0, step)
-    g = to_one_degree(gain_pattern(prob, sol, np.arange(0.0, 91.0, step), phis), step, quadrant=n_phi == 91)
+    if ground == "pec":
+        g = to_one_degree(gain_pattern(prob, sol, np.arange(0.0, 91.0, step), phis), step, quadrant=n_phi == 91)
+        balance = upper_mean_gain(g) / 2.0  # all the power goes up
+    else:  # free space: half the power goes down, so integrate the whole sphere
+        both = gain_pattern(prob, sol, np.arange(0.0, 181.0, step), phis)
+        g = to_one_degree(both[: 90 // step + 1], step, quadrant=n_phi == 91)
+        below = to_one_degree(both[::-1][: 90 // step + 1], step, quadrant=n_phi == 91)
+        balance = (upper_mean_gain(g) + upper_mean_gain(below)) / 2.0
     if not np.all(np.isfinite(g)) or sol.input_power <= 0:
         raise SolveError(f"surface engine: non-physical solution at {freq_mhz} MHz (input power {sol.input_power:g} W)")
     zin = sol.input_impedance
     return g, {"input_impedance_re": float(zin.real), "input_impedance_im": float(zin.imag),
-               "upper_mean_gain": upper_mean_gain(g)}
+               "energy_balance": balance}
 
 
 @register_engine
@@ -59,7 +68,7 @@ class SurfaceSolver(FrequencySolver):
     name: ClassVar[str] = "surface"
     settings_class: ClassVar[type] = SurfaceSettings
     model_version: ClassVar[int] = MODEL_VERSION
-    grounds: ClassVar[tuple[str, ...]] = ("pec",)
+    grounds: ClassVar[tuple[str, ...]] = ("pec", "free")
 
     def engine_identity(self) -> dict[str, str]:
         deps = {}
@@ -71,9 +80,9 @@ class SurfaceSolver(FrequencySolver):
         return {"engine": "groundplane-rwg", "version": str(MODEL_VERSION), **deps}
 
     def check(self, design: Design) -> None:
-        if not isinstance(design.ground, InfinitePEC):
+        if design.ground_kind not in self.grounds:
             raise SettingsError(f"{design.label()}: the surface engine solves over infinite PEC ground only (image "
-                                "theory); over soil use --engine nec")
+                                "theory) or in free space; over soil use --engine nec")
 
     def plan(self, design: Design) -> Plan:
         self.check(design)
@@ -88,6 +97,6 @@ class SurfaceSolver(FrequencySolver):
         symmetric = design.plane is None or all(design.plane.mirror_symmetry.values())
         n_phi = 91 if symmetric else 360
         what = design.plane.describe() if design.plane else "blade"
-        label = f"{what} over PEC ({rwg.n} unknowns)"
+        label = f"{what} {'over PEC' if design.ground_kind == 'pec' else 'in free space'} ({rwg.n} unknowns)"
         meta = {"n_unknowns": rwg.n, "n_triangles": len(mesh.tris)}
-        return Plan(solve_frequency, (mesh, "pec", n_phi, self.settings.near_factor), n_phi, meta, label)
+        return Plan(solve_frequency, (mesh, design.ground_kind, n_phi, self.settings.near_factor), n_phi, meta, label)

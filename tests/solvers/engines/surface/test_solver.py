@@ -29,7 +29,7 @@ def test_engine_is_registered_and_solves_with_the_shared_cache(tmp_path, monkeyp
     design = Design(None, InfinitePEC())
     beam = solver.solve(design, [50.0, 80.0])
     assert beam.gain.shape == (2, 91, 360)
-    assert np.allclose(beam.meta["upper_mean_gain"], 2.0, atol=2e-3)
+    assert np.allclose(beam.meta["energy_balance"], 1.0, atol=1e-3)
     assert beam.meta["n_unknowns"] > 0 and beam.meta["solver"] == "surface"
     assert solver.cached(design, [50.0, 80.0]) is not None  # second call: from the cache
     assert solver.cache_key(design, [50.0, 80.0]) != make_solver("nec").cache_key(design, [50.0, 80.0])
@@ -82,3 +82,17 @@ def test_commands_on_soil_refuse_the_surface_engine_before_solving(tmp_path, cap
     rc = main([*argv, "--engine", "surface", "-o", str(tmp_path / "out")])
     assert rc == 2
     assert "PEC ground only" in capsys.readouterr().err
+
+
+def test_free_space_blade_conserves_energy_and_matches_nec():
+    """A case with no ground: the whole sphere carries the power; NEC in free space agrees."""
+    from groundplane.design import FreeSpace
+    from solvers.engines.nec import NecSettings
+
+    design = Design(None, FreeSpace())
+    beam = make_solver("surface", SurfaceSettings(blade_cells=(6, 6)), workers=0, use_cache=False).solve(design, [70.0])
+    assert beam.meta["energy_balance"][0] == pytest.approx(1.0, abs=2e-3)
+    nec = make_solver("nec", NecSettings(), workers=1, use_cache=False).solve(design, [70.0])
+    assert beam.gain[0, 0, 0] == pytest.approx(nec.gain[0, 0, 0], rel=0.03)
+    assert "GN -1" in __import__("solvers.engines.nec", fromlist=["build_model"]).build_model(
+        design, NecSettings()).to_deck([70.0])
