@@ -18,8 +18,10 @@ from ..base import FrequencySolver, Plan, register_engine, to_one_degree, upper_
 from .mesh import SurfaceSettings, build_mesh
 from .rwg import MirrorSymmetry, Problem, TriMesh, gain_pattern, rwg_basis, solve
 
-MODEL_VERSION = 2  # bump when the model changes: the cache key includes it
+MODEL_VERSION = 3  # bump when the model changes: the cache key includes it
 # 2: energy_balance (radiated / input power) recorded instead of the upper-hemisphere mean gain
+# 3: quadrature points exactly at their triangle's height (a self pair's 1e-17 m "distance"
+#    had wiped out self terms on some meshes); close pairs' outer rule on 16 sub-triangles
 FAR_FIELD_STEP = 3  # deg; interpolated bicubically to 1 deg (as NEC's far field)
 
 
