@@ -10,20 +10,21 @@ triangle pairs:
 
 * Matrix: Z = jw mu/(4 pi) <f_m, A f_n> - j/(4 pi w eps) <div f_m, Phi div f_n> with the
   kernel G = exp(-jkR)/R (minus its image over PEC). Per triangle pair the integrals reduce
-  to four moments (the scalar, two first moments and the cross moment of G over the pair);
-  Z is then a few sparse x dense products with the RWG coefficients, so nothing is looped
-  in Python per element.
+  to a few moments (the scalar, the first moments on either side and the cross moment of G
+  over the pair); Z is then gathers of those with the RWG coefficients (each basis lives on
+  two triangles), so nothing is looped in Python per element.
 * Distant pairs: 3-point rules (degree 2) on both triangles. Near pairs (centroids closer
   than ``near_factor`` times the larger triangle, images included): 7-point outer rule
-  (Dunavant, degree 5); the inner 1/R and rho'/R integrals in closed form (Wilton et al.
-  1984, IEEE TAP 32, 276; no library provides them for numpy arrays), the smooth rest
-  (exp(-jkR) - 1)/R by the 7-point rule.
+  (Dunavant, degree 5; on 16 sub-triangles for close pairs); the inner 1/R and rho'/R
+  integrals in closed form (Wilton et al. 1984, IEEE TAP 32, 276; no library provides them
+  for numpy arrays), the smooth rest (exp(-jkR) - 1)/R by the 7-point rule.
 * Only horizontal triangles (every structure we model is flat and level): currents are
   horizontal, so a PEC image is the same current reversed at -z, for both potentials.
 * Designs symmetric about both axes are solved in the driven symmetry class only
   (:class:`MirrorSymmetry`): exact, a quarter of the fill.
-* Gain = 4 pi U / P_in with P_in = 1/2 Re(V I*) at the gap: over PEC a lossless model must
-  give a mean gain of 2 over the upper hemisphere, which the tests check (no calibration).
+* Gain = 4 pi U / P_in with P_in = 1/2 Re(V I*) at the gap: a lossless model must radiate
+  what it takes in (mean gain 2 over the upper hemisphere over PEC, 1 over the sphere in
+  free space), which the tests check (no calibration).
 """
 from __future__ import annotations
 
