@@ -101,7 +101,10 @@ def add_options(parser: argparse.ArgumentParser, cls: type, title: str | None = 
     """Add the dataclass's options to ``parser`` (in a group titled ``title``)."""
     g = parser.add_argument_group(title) if title else parser
     for o in options(cls):
-        if o.flag in parser._option_string_actions:  # shared by two engines' settings: one flag
+        shared = parser._option_string_actions.get(o.flag)
+        if shared is not None:  # shared by two engines' settings: one flag, each one's default said
+            if f"(default {_fmt(o.default)})" not in (shared.help or ""):
+                shared.help = f"{shared.help}; {title or cls.__name__}: default {_fmt(o.default)}"
             continue
         kw: dict[str, Any] = {"dest": o.key, "default": None}
         if o.switch is not None or (o.hint is bool and o.default is False):

@@ -72,8 +72,9 @@ class EvalSettings:
 
         grounds = getattr(ENGINES[self.engine], "grounds", ("soil", "pec"))
         if "soil" not in grounds:
-            raise UserInputError(f"--engine {self.engine} solves over infinite PEC ground only, and candidates here "
-                                 "lie on soil: use --engine nec (or `groundplane solve --engine "
+            also = " (or in free space)" if "free" in grounds else ""
+            raise UserInputError(f"--engine {self.engine} solves over infinite PEC ground only{also}, and candidates "
+                                 "here lie on soil: use --engine nec (or `groundplane solve --engine "
                                  f"{self.engine} --ground pec` for one design above PEC)")
 
         try:

@@ -1,8 +1,10 @@
 """Helpers shared by the studies (not a study itself)."""
 from __future__ import annotations
 
+import csv
 import platform
 import time
+from pathlib import Path
 from typing import Iterable
 
 import numpy as np
@@ -52,6 +54,16 @@ def narrow_rms(beam: Beam, degree: int = 12) -> float:
     stored grid (the committed v1 studies used this); see ``groundplane.fom.narrow_band_rms``
     for the upper-hemisphere metric."""
     return float(np.std(beam.gain - beam.frequency_smoothed(degree).gain) / np.mean(beam.gain))
+
+
+def write_csv(path: Path, rows: list[dict], fieldnames: list[str] | None = None) -> None:
+    """A study's table as CSV, replaced atomically (a rerun or a kill never leaves half a file)."""
+    from groundplane.files import atomic_path
+
+    with atomic_path(path, suffix=".tmp.csv") as tmp, open(tmp, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=fieldnames or list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
 
 
 def machine() -> str:

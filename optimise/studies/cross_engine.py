@@ -3,7 +3,6 @@ do: the blade over infinite PEC, and a finite plate above PEC ground (the paper'
 method: one antenna, several solvers, side by side)."""
 from __future__ import annotations
 
-import csv
 import json
 import math
 from dataclasses import dataclass
@@ -20,7 +19,7 @@ from solvers.engines.nec import NecSettings
 from solvers.engines.surface import SurfaceSettings
 
 from . import study
-from ._common import FREQS, fom_mk, machine
+from ._common import FREQS, fom_mk, machine, write_csv
 
 PLATE = "square-10"
 PLATE_HEIGHT_M = 0.05  # above PEC (the issue's case); in free space the height means nothing
@@ -112,21 +111,12 @@ def _size(beam: Beam) -> str:
     return f"{beam.meta.get('n_unknowns', '?')} unknowns"
 
 
-_FOM: dict[int, tuple[Beam, float]] = {}
-
-
-def _fom_of(beam: Beam) -> float:
-    """The FoM of a beam, computed once per beam object (references are compared many times)."""
-    if id(beam) not in _FOM or _FOM[id(beam)][0] is not beam:
-        _FOM[id(beam)] = (beam, fom_mk(beam))
-    return _FOM[id(beam)][1]
-
-
-def _row(c: Case, beam: Beam, ref: Beam | None) -> dict:
+def _row(c: Case, beam: Beam, ref: tuple[Beam, float] | None) -> dict:
+    """One table row; ``ref`` is the case's reference (beam, FoM), None for the reference."""
     zen = beam.gain[:, 0, 0]
     row = {
         "case": c.case, "model": c.model, "engine": c.engine, "size": _size(beam),
-        "fom_mk": _fom_of(beam),
+        "fom_mk": fom_mk(beam),
         "e_width_deg": beam.beam_width_3db(paper.BEAM_WIDTH_FREQ_MHZ, 0),
         "h_width_deg": beam.beam_width_3db(paper.BEAM_WIDTH_FREQ_MHZ, 90),
         "zenith_gain_75": float(zen[np.argmin(np.abs(beam.freqs_mhz - 75))]),
@@ -138,8 +128,9 @@ def _row(c: Case, beam: Beam, ref: Beam | None) -> dict:
         m = np.asarray(beam.meta["energy_balance"])
         row["energy_balance"] = f"{m.min():.4f}-{m.max():.4f}"
     if ref is not None and not c.reference:
-        row["fom_vs_ref"] = f"{row['fom_mk'] / _fom_of(ref) - 1:+.1%}"
-        dev = zen / ref.gain[:, 0, 0] - 1
+        ref_beam, ref_fom = ref
+        row["fom_vs_ref"] = f"{row['fom_mk'] / ref_fom - 1:+.1%}"
+        dev = zen / ref_beam.gain[:, 0, 0] - 1
         k = int(np.argmax(np.abs(dev)))
         row["zenith_vs_ref_max"] = f"{dev[k]:+.1%} at {beam.freqs_mhz[k]:g} MHz"
     return row
@@ -171,31 +162,22 @@ def cross_engine(out: Path, command: str, workers: int = 2, meshes: Meshes = Mes
                  freqs: np.ndarray = FREQS) -> None:
     """Solve every case (cached, resumable; each case's reference first), then tabulate
     FoM, widths, zenith gain against the reference per frequency, energy balance, cost."""
-    rows: list[dict] = []
-    beams: list[tuple[Case, Beam]] = []
     all_cases = cases(meshes)
-    refs: dict[str, Beam] = {}
-    order = sorted(all_cases, key=lambda c: not c.reference)  # references first, rows in case order
-    solved: dict[int, Beam] = {}
-    done_rows: dict[int, dict] = {}
-    for c in order:  # a reference is solved before the rows compared with it: each row is made once
+    refs: dict[str, tuple[Beam, float]] = {}
+    solved: dict[int, tuple[Beam, dict]] = {}
+    for c in sorted(all_cases, key=lambda c: not c.reference):  # references first: each row is made once
         beam = make_solver(c.engine, c.settings, workers=workers, progress=True).solve(c.design, freqs)
-        solved[id(c)] = beam
+        row = _row(c, beam, None if c.reference else refs[c.case])
         if c.reference:
-            refs[c.case] = beam
-        done_rows[id(c)] = _row(c, beam, refs.get(c.case))
-        rows = [done_rows[id(x)] for x in all_cases if id(x) in done_rows]
-        _write(out, command, rows, freqs)
-    beams = [(c, solved[id(c)]) for c in all_cases]
-    _plot(beams, out / "cross_engine.png")
-    _write(out, command, rows, freqs, done=True)
+            refs[c.case] = (beam, row["fom_mk"])
+        solved[id(c)] = (beam, row)
+        _write(out, command, [solved[id(x)][1] for x in all_cases if id(x) in solved], freqs, meshes.plate_name)
+    _plot([(c, solved[id(c)][0]) for c in all_cases], out / "cross_engine.png")
+    _write(out, command, [solved[id(c)][1] for c in all_cases], freqs, meshes.plate_name, done=True)
 
 
-def _write(out: Path, command: str, rows: list[dict], freqs: np.ndarray, done: bool = False) -> None:
-    with open(out / "cross_engine.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+def _write(out: Path, command: str, rows: list[dict], freqs: np.ndarray, plate: str, done: bool = False) -> None:
+    write_csv(out / "cross_engine.csv", rows)
     lines = [
         "# NEC-2 against the surface engine (RWG) on the cases both can do",
         "",
@@ -204,7 +186,7 @@ def _write(out: Path, command: str, rows: list[dict], freqs: np.ndarray, done: b
         "frequencies); FoM with the paper's settings. NEC is gain-calibrated on the blade over PEC "
         "(solvers/engines/nec/solver.py); the surface engine is not calibrated: its radiated over input power "
         "(the energy balance, 1 for a lossless model) is shown instead.",
-        f"Plates: `{rows[-1]['case'].split()[0]}` in free space, and {PLATE_HEIGHT_M:g} m above infinite PEC ground. Each case's "
+        f"Plates: `{plate}` in free space, and {PLATE_HEIGHT_M:g} m above infinite PEC ground. Each case's "
         "reference (bold) is its finest surface-engine model; the other rows are compared with it (FoM, and the "
         "largest deviation of the zenith gain over 40-100 MHz).",
         "",
@@ -240,16 +222,17 @@ def _reading(rows: list[dict]) -> list[str]:
         f"- **Blade over PEC: the engines agree.** NEC's wire-grid blade scores {blade_nec['fom_mk']:.1f} mK against "
         f"{blade_ref['fom_mk']:.1f} mK for solid panels (FoM {blade_nec['fom_vs_ref']}, zenith gain at most "
         f"{blade_nec['zenith_vs_ref_max']}); both give Table 1's beam widths. The gap to FEKO's 61.8 mK is not "
-        "a wire-grid artefact: solid panels score the same; what FEKO's model has and ours lacks is the balun, "
-        "top plate and shield.",
+        "a wire-grid artefact: solid panels score the same; what FEKO's model has and ours lacks (balun, top "
+        "plate, shield) remains the candidate.",
         f"- **A finite plate in free space: NEC's production plate is a leaky reflector.** With the production "
         f"model ({free_prod['model'].split(', ', 1)[1].replace(' (production)', '')}) NEC's zenith gain is "
         f"{free_prod['zenith_vs_ref_max']} off the solid plate and the FoM {free_prod['fom_vs_ref']}; with wires "
         f"of the equal-area radius (2 pi r = spacing) the grid agrees ({free_eq['model'].split(', ')[1]}: FoM "
         f"{free_eq['fom_vs_ref']}, zenith gain at most {free_eq['zenith_vs_ref_max']}; "
         f"{free_fine['model'].split(', ')[1]}: {free_fine['fom_vs_ref']}, {free_fine['zenith_vs_ref_max']}). "
-        "A thin-wire grid passes part of the field, more at higher frequency. Over soil NEC-2 cannot use the "
-        "equal-area radius (wires must stay 3 radii above the soil: 8 cm wires need the plate 24 cm up), so the "
+        "A thin-wire grid passes part of the field, more at higher frequency. Over soil our NEC model cannot use the "
+        "equal-area radius (it keeps wires 3 radii above the soil, NEC-2's thin-wire limit near the interface: "
+        "8 cm wires would put the plate 24 cm up), so the "
         "production plate on soil is this leaky grid over lossy ground (issue 11's suspect for the excess FoM of "
         "large planes).",
         f"- **A plate {PLATE_HEIGHT_M * 100:g} cm above PEC is a resonant cavity** (plate and ground form a "

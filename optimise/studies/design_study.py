@@ -2,7 +2,6 @@
 It runs through the sweep machinery, so it is resumable and every solve is cached."""
 from __future__ import annotations
 
-import csv
 import json
 from pathlib import Path
 
@@ -19,6 +18,7 @@ from ..evaluate import (
 from ..report import write_report
 from ..sweep import run_sweep
 from . import study
+from ._common import write_csv
 
 DESIGN_STUDY = list(paper.TABLE3_FOM_MK.items())  # (preset, paper FoM mK), in the table's order
 
@@ -38,11 +38,8 @@ def design_study(settings: EvalSettings, out_dir: str | Path, command: str, prog
     out = Path(out_dir)
     table = _study_table(settings, out, progress, report=True)
     other = None if compare is None else _study_table(compare, out, progress, report=False)
-    with open(out / "design_study.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(table[0]) + (["compare_fom_mk"] if other else []))
-        w.writeheader()
-        for i, t in enumerate(table):
-            w.writerow({**t, **({"compare_fom_mk": other[i]["our_fom_mk"]} if other else {})})
+    write_csv(out / "design_study.csv",
+              [{**t, **({"compare_fom_mk": other[i]["our_fom_mk"]} if other else {})} for i, t in enumerate(table)])
     pec = pec_reference_fom(settings, progress)
     (out / "design_study.md").write_text(_design_md(table, settings, command, other, compare, pec))
     return table

@@ -3,7 +3,6 @@ efficiency vs plate spacing, wire radius and graded meshes; and why the default 
 what it is."""
 from __future__ import annotations
 
-import csv
 import json
 import math
 from pathlib import Path
@@ -20,6 +19,7 @@ from ._common import (
     fom_mk,
     machine,
     solve,
+    write_csv,
     zenith_dbi,
 )
 
@@ -39,10 +39,7 @@ def mesh_convergence(out: Path, command: str) -> None:
 
     def write() -> None:
         out.mkdir(parents=True, exist_ok=True)
-        with open(out / "mesh_convergence.csv", "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            w.writeheader()
-            w.writerows(rows)
+        write_csv(out / "mesh_convergence.csv", rows)
         lines = [
             "# NEC-2 mesh convergence: `square-10` over MRO soil (eps_r 3.5, sigma 0.02 S/m)",
             "",

@@ -10,7 +10,6 @@ efficiency (upper-hemisphere mean gain / 2 at 75 MHz, calibrated) and the per-LS
 """
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import numpy as np
@@ -22,7 +21,7 @@ from groundplane.shapes import PRESETS
 from solvers.engines.nec import NecSettings
 
 from . import study
-from ._common import efficiency, fom_mk, machine, solve
+from ._common import efficiency, fom_mk, machine, solve, write_csv
 
 # (spacing m, plate height m, wire radius m): radius at a fixed height, height at a fixed
 # radius, the thickest wire NEC allows (r = h/3) as the plate comes down to the soil, then
@@ -62,10 +61,7 @@ def plate_model(out: Path, command: str, grid=GRID, shape: str = "square-10") ->
         (out / "plate_model.md").write_text("\n".join(lines) + "\n")
     lines += _findings(rows)
     (out / "plate_model.md").write_text("\n".join(lines) + "\n")
-    with open(out / "plate_model.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(out / "plate_model.csv", rows)
 
 
 def _findings(rows: list[dict]) -> list[str]:

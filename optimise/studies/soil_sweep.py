@@ -2,7 +2,6 @@
 0.001-0.1 S/m at eps_r 3.5, through the sweep machinery (resumable, cached)."""
 from __future__ import annotations
 
-import csv
 import json
 from dataclasses import replace
 from pathlib import Path
@@ -16,6 +15,7 @@ from groundplane.shapes import preset
 from ..evaluate import Candidate, EvalSettings
 from ..sweep import run_sweep
 from . import study
+from ._common import write_csv
 
 EPS_R = paper.SOIL_SWEEP_EPS_R
 SIGMA = paper.SOIL_SWEEP_SIGMA
@@ -38,10 +38,7 @@ def soil_sweep(settings: EvalSettings, out_dir: str | Path, command: str, progre
                       out / "soil_sweep_runs", progress=progress, retry_failed=True)[0]
         rows.append({"varied": kind, "eps_r": soil.eps_r, "sigma": soil.sigma,
                      "fom_mk": r.get("lst_averaged_fom_mk"), "status": r.get("status")})
-    with open(out / "soil_sweep.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(out / "soil_sweep.csv", rows)
     _soil_plot(rows, out / "soil_sweep.png")
     md = ["# Soil sweep on `square-10` (paper section 5) with NEC-2", "", f"Command: `{command}`.",
           f"Mesh: {json.dumps(settings.identity()['mesh'])}.", "",

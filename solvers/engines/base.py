@@ -11,6 +11,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Callable, ClassVar, Iterable, Protocol, runtime_checkable
 
 import numpy as np
@@ -73,6 +74,17 @@ def make_solver(engine: str, settings: Any = None, **runtime: Any) -> Solver:
         raise SettingsError(f"unknown engine '{engine}'; choose one of {', '.join(ENGINES)}")
     cls = ENGINES[engine]
     return cls(settings if settings is not None else cls.settings_class(), **runtime)
+
+
+def available_memory_bytes() -> int | None:
+    """MemAvailable from /proc/meminfo (Linux), else None (no check)."""
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                return int(line.split()[1]) * 1024
+    except OSError:
+        return None
+    return None
 
 
 def worker_init(parent_pid: int | None = None) -> None:

@@ -33,7 +33,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from groundplane.antenna import BladeDipole
-from groundplane.design import Design, InfinitePEC, Soil
+from groundplane.design import Design, Soil
 from groundplane.errors import SettingsError, SolveError
 from groundplane.options import option
 from groundplane.shapes import GroundPlane
@@ -51,7 +51,7 @@ class NecSettings:
     # of square-10 by about 5 %, with the thickest wire that height allows (r = h / 3;
     # thicker wires leak less into the soil).
     plate_wire_radius: float = option(0.0016, "plate wire radius (m)", flag="--wire-radius")
-    plate_height: float = option(0.005, "plate height above the ground (m; the surface engine's default is 0.05)")
+    plate_height: float = option(0.005, "plate height above the ground (m)")
     blade_cells: tuple[int, int] = option((12, 10), "blade panel grid cells along and across the axis",
                                           metavar=("NX", "NY"))
     blade_wire_radius: float = option(0.002, "blade wire radius (m)")
@@ -410,17 +410,14 @@ def _is_corner(poly, p: np.ndarray) -> bool:
 
 
 def build_model(design: Design, settings: NecSettings) -> NecModel:
-    """The full NEC model of a design."""
-    if isinstance(design.ground, InfinitePEC) and design.plane is None:
-        return pec_reference_model(design, settings)
-    if not isinstance(design.ground, Soil):  # a plate above perfect ground or in free space (cross-engine cases)
-        model = NecModel(ground=design.ground_kind)
-        if design.plane is None:
-            add_blade(model, design.antenna, design.antenna.height, settings)
-            return _folded(model, settings)
-    else:
-        assert isinstance(design.ground, Soil)
+    """The full NEC model of a design: the blade over a plate on soil, above perfect ground or
+    in free space (the last two are the cross-engine cases), or the blade alone."""
+    if design.plane is None:  # (Design refuses soil without a plate)
+        return _blade_alone(design, settings, design.ground_kind)
+    if isinstance(design.ground, Soil):
         model = NecModel(ground="soil", eps_r=design.ground.eps_r, sigma=design.ground.sigma)
+    else:
+        model = NecModel(ground=design.ground_kind)
     zp = settings.plate_height
     edges = plate_edges(design.plane, settings.spacing, settings.merge_fraction, settings.refine_half_width,
                         settings.refine_factor)
@@ -435,7 +432,11 @@ def build_model(design: Design, settings: NecSettings) -> NecModel:
 
 def pec_reference_model(design: Design, settings: NecSettings) -> NecModel:
     """The design's blade alone over infinite PEC (the reference case and the gain calibration)."""
-    model = NecModel(ground="pec")
+    return _blade_alone(design, settings, "pec")
+
+
+def _blade_alone(design: Design, settings: NecSettings, ground: str) -> NecModel:
+    model = NecModel(ground=ground)
     add_blade(model, design.antenna, design.antenna.height, settings)
     return _folded(model, settings)
 

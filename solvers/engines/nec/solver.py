@@ -30,7 +30,7 @@ from groundplane.design import Design, InfinitePEC
 from groundplane.errors import SettingsError, SolveError
 from groundplane.sky import cache_dir
 
-from ..base import FrequencySolver, Plan, register_engine
+from ..base import FrequencySolver, Plan, available_memory_bytes, register_engine
 from . import engine
 from .mesh import NecModel, NecSettings, build_model, pec_reference_model
 
@@ -43,17 +43,6 @@ MODEL_VERSION = 2  # bump when the model changes: the cache key includes it
 def matrix_bytes(model: NecModel) -> int:
     """NEC-2's interaction matrix: N^2 / sections complex doubles (the dominant memory)."""
     return 16 * model.n_segments ** 2 // model.sections
-
-
-def available_memory_bytes() -> int | None:
-    """MemAvailable from /proc/meminfo (Linux), else None (no check)."""
-    try:
-        for line in Path("/proc/meminfo").read_text().splitlines():
-            if line.startswith("MemAvailable:"):
-                return int(line.split()[1]) * 1024
-    except OSError:
-        return None
-    return None
 
 
 def check_memory(model: NecModel, processes: int, label: str) -> None:

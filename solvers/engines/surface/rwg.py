@@ -168,24 +168,23 @@ def _kernel(r: np.ndarray, k: float) -> np.ndarray:
         return np.where(r > 1e-9, np.exp(-1j * k * r) / r, 0.0)
 
 
-def _moments_far(obs: tuple[np.ndarray, np.ndarray], src: tuple[np.ndarray, np.ndarray], z_src: np.ndarray,
-                 k: float) -> np.ndarray:
-    """Moments [4, To, Ts] of G over every triangle pair by the product rule:
-    S0 = sum w w' G, Sx/Sy = sum w w' G x (observation), Srr = sum w w' G (rho . rho');
-    the source first moments follow from the same arrays (returned in [4:6] as Sx', Sy')."""
-    po, wo = obs
-    ps, ws = src
-    d = po[:, None, :, None, :2] - ps[None, :, None, :, :2]
-    dz = po[:, None, :, None, 2] - z_src[None, :, None, None]
+def _product_rule(po: np.ndarray, wo: np.ndarray, ps: np.ndarray, ws: np.ndarray, zs: np.ndarray,
+                  k: float) -> np.ndarray:
+    """Moments [6, ...] of G by the product of two point rules, for triangle pairs laid out
+    on any broadcastable leading shape (every pair of a block, or a list of pairs):
+    points ``po`` [..., Qo, 3] / ``ps`` [..., Qs, 3], weights ``wo``/``ws`` (area included),
+    source level ``zs`` [...] (negated for an image). Returns S0 = sum w w' G, the
+    observation first moments Sx, Sy, Srr = sum w w' G (rho . rho'), and the source first
+    moments Sx', Sy'. The dense fill and the near-pair correction both use this, so the
+    correction subtracts exactly what the fill put in."""
+    d = po[..., :, None, :2] - ps[..., None, :, :2]
+    dz = po[..., :, None, 2] - zs[..., None, None]
     r = np.sqrt(np.einsum("...k,...k->...", d, d) + dz ** 2)
-    g = _kernel(r, k) * wo[:, None, :, None] * ws[None, :, None, :]
-    s0 = g.sum(axis=(2, 3))
-    gi = g.sum(axis=3)  # [To, Ts, Qo]
-    gj = g.sum(axis=2)  # [To, Ts, Qs]
-    so = np.einsum("otq,oqk->kot", gi, po[..., :2])
-    ss = np.einsum("otq,tqk->kot", gj, ps[..., :2])
-    srr = np.einsum("otik,oik->ot", np.einsum("otij,tjk->otik", g, ps[..., :2]), po[..., :2])
-    return np.stack([s0, so[0], so[1], srr, ss[0], ss[1]])
+    g = _kernel(r, k) * wo[..., :, None] * ws[..., None, :]
+    so = np.einsum("...i,...ik->k...", g.sum(axis=-1), po[..., :2])
+    ss = np.einsum("...j,...jk->k...", g.sum(axis=-2), ps[..., :2])
+    srr = np.einsum("...ik,...ik->...", np.einsum("...ij,...jk->...ik", g, ps[..., :2]), po[..., :2])
+    return np.stack([g.sum(axis=(-1, -2)), so[0], so[1], srr, ss[0], ss[1]])
 
 
 def potential_integrals(rho: np.ndarray, d: np.ndarray, verts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -326,18 +325,9 @@ def _near_moments_rule(mesh: TriMesh, pairs: np.ndarray, k: float, image: bool,
 def _far_rule_pairs(mesh: TriMesh, pairs: np.ndarray, k: float, image: bool) -> np.ndarray:
     """The 3-point product-rule moments [6, n_pairs] of the same pairs (to be replaced)."""
     o, s = pairs[:, 0], pairs[:, 1]
-    po, wo = _points(mesh, _Q3)
-    po, wo, ps, ws = po[o], wo[o], po[s], wo[s]
+    p, w = _points(mesh, _Q3)
     zs = mesh.nodes[mesh.tris[s, 0], 2] * (-1 if image else 1)
-    diff = po[:, :, None, :2] - ps[:, None, :, :2]
-    dz = po[:, :, None, 2] - zs[:, None, None]
-    r = np.sqrt(np.einsum("...k,...k->...", diff, diff) + dz ** 2)
-    g = _kernel(r, k) * wo[:, :, None] * ws[:, None, :]
-    s0 = g.sum(axis=(1, 2))
-    so = np.einsum("nij,nik->kn", g, po[..., :2])
-    ss = np.einsum("nij,njk->kn", g, ps[..., :2])
-    srr = np.einsum("nij,nik,njk->n", g, po[..., :2], ps[..., :2])
-    return np.stack([s0, so[0], so[1], srr, ss[0], ss[1]])
+    return _product_rule(p[o], w[o], p[s], w[s], zs, k)
 
 
 def _near_corrections(prob: Problem, k: float, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -401,7 +391,8 @@ def impedance_matrix(prob: Problem, freq_hz: float, rows: np.ndarray | None = No
     for b, start in enumerate(range(0, len(needed), block)):
         sel = needed[start:start + block]
         obs = (q3[0][sel], q3[1][sel])
-        mo = sum(sgn * _moments_far(obs, q3, zt * sgn, k) for sgn in signs)
+        mo = sum(sgn * _product_rule(obs[0][:, None], obs[1][:, None], q3[0][None], q3[1][None], zt[None] * sgn, k)
+                 for sgn in signs)
         lo, hi = bounds[b], bounds[b + 1]
         for i in range(6):  # near pairs: the accurate values replace the 3-point ones
             np.add.at(mo[i], (slot[pairs[lo:hi, 0]] - start, pairs[lo:hi, 1]), corr[i, lo:hi])
@@ -435,14 +426,14 @@ class MirrorSymmetry:
     def of(cls, mesh: TriMesh, rwg: Rwg) -> "MirrorSymmetry | None":
         """The reduction, or None when the mesh is not symmetric about both axes."""
         key = {tuple(k): i for i, k in enumerate(np.round(mesh.nodes, 9))}
+        edge_of = {tuple(e): i for i, e in enumerate(rwg.edges)}
+        tri_of = {tuple(sorted(t)): i for i, t in enumerate(mesh.tris)}
         images = []
         for m in (np.array([-1.0, 1.0, 1.0]), np.array([1.0, -1.0, 1.0])):
             node = [key.get(tuple(k)) for k in np.round(mesh.nodes * m, 9)]
             if any(i is None for i in node):
                 return None
             node = np.asarray(node)
-            edge_of = {tuple(e): i for i, e in enumerate(rwg.edges)}
-            tri_of = {tuple(sorted(t)): i for i, t in enumerate(mesh.tris)}
             img = [edge_of.get(tuple(sorted(node[e]))) for e in rwg.edges]
             if any(i is None for i in img):
                 return None

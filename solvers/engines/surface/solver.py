@@ -14,7 +14,7 @@ import numpy as np
 from groundplane.design import Design
 from groundplane.errors import SettingsError, SolveError
 
-from ..base import FrequencySolver, Plan, register_engine, to_one_degree, upper_mean_gain
+from ..base import FrequencySolver, Plan, available_memory_bytes, register_engine, to_one_degree, upper_mean_gain
 from .mesh import SurfaceSettings, build_mesh
 from .rwg import MirrorSymmetry, Problem, TriMesh, gain_pattern, rwg_basis, solve
 
@@ -29,8 +29,6 @@ def check_memory(n_unknowns: int, n_triangles: int, processes: int, label: str) 
     """Refuse, before any work, a mesh whose matrices do not fit in memory: Z is N x N and
     the assembly keeps three T x N products (complex doubles); a mirror-symmetric design
     fills only a quarter of the rows, but the check assumes the full model."""
-    from ..nec.solver import available_memory_bytes
-
     need = 16 * (n_unknowns ** 2 * 2 + 3 * n_triangles * n_unknowns) * processes
     have = available_memory_bytes()
     if have is not None and need > 0.8 * have:
@@ -87,7 +85,6 @@ class SurfaceSolver(FrequencySolver):
                                 "theory) or in free space; over soil use --engine nec")
 
     def plan(self, design: Design) -> Plan:
-        self.check(design)
         try:
             mesh: TriMesh = build_mesh(design, self.settings)
             rwg = rwg_basis(mesh)
