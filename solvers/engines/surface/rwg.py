@@ -34,9 +34,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-C0 = 299_792_458.0
-MU0 = 4e-7 * np.pi
-EPS0 = 1.0 / (MU0 * C0 ** 2)
+from .halfspace import C0, EPS0, MU0, ReflectedKernels, charge_image, fresnel, soil_permittivity
+
 ETA0 = MU0 * C0
 
 # Barycentric quadrature on a triangle (weights sum to 1; multiply by the area).
@@ -180,11 +179,27 @@ def _product_rule(po: np.ndarray, wo: np.ndarray, ps: np.ndarray, ws: np.ndarray
     d = po[..., :, None, :2] - ps[..., None, :, :2]
     dz = po[..., :, None, 2] - zs[..., None, None]
     r = np.sqrt(np.einsum("...k,...k->...", d, d) + dz ** 2)
-    g = _kernel(r, k) * wo[..., :, None] * ws[..., None, :]
+    return _moments(_kernel(r, k) * wo[..., :, None] * ws[..., None, :], po, ps)
+
+
+def _moments(g: np.ndarray, po: np.ndarray, ps: np.ndarray) -> np.ndarray:
+    """The six pair moments [6, ...] of weighted kernel values ``g`` [..., Qo, Qs]."""
     so = np.einsum("...i,...ik->k...", g.sum(axis=-1), po[..., :2])
     ss = np.einsum("...j,...jk->k...", g.sum(axis=-2), ps[..., :2])
     srr = np.einsum("...ik,...ik->...", np.einsum("...ij,...jk->...ik", g, ps[..., :2]), po[..., :2])
     return np.stack([g.sum(axis=(-1, -2)), so[0], so[1], srr, ss[0], ss[1]])
+
+
+def _reflected_rule(po: np.ndarray, wo: np.ndarray, ps: np.ndarray, ws: np.ndarray, zs: np.ndarray,
+                    kernels: ReflectedKernels) -> tuple[np.ndarray, np.ndarray]:
+    """The soil's smooth reflected kernels by a product rule (shapes as ``_product_rule``):
+    the six moments of S(R_TE) (vector potential) and S0 of S(R_q - K_q) (scalar)."""
+    d = po[..., :, None, :2] - ps[..., None, :, :2]
+    rho = np.sqrt(np.einsum("...k,...k->...", d, d))
+    zeta = po[..., :, None, 2] + zs[..., None, None]
+    ga, gq = kernels.lookup(rho, zeta)
+    w = wo[..., :, None] * ws[..., None, :]
+    return _moments(ga * w, po, ps), (gq * w).sum(axis=(-1, -2))
 
 
 def potential_integrals(rho: np.ndarray, d: np.ndarray, verts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -225,21 +240,25 @@ def potential_integrals(rho: np.ndarray, d: np.ndarray, verts: np.ndarray) -> tu
 
 @dataclass
 class Problem:
-    """A mesh ready to solve: basis, coefficients, and the near-pair lists."""
+    """A mesh ready to solve: basis, coefficients, and the near-pair lists. ``soil`` is
+    (eps_r, sigma S/m) for ``ground="soil"`` (see ``halfspace.py``)."""
 
     mesh: TriMesh
     rwg: Rwg
-    ground: str  # "pec" | "free"
+    ground: str  # "pec" | "free" | "soil"
     near_factor: float = 2.5
+    soil: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
-        if self.ground not in ("pec", "free"):
-            raise ValueError(f"surface engine: ground must be 'pec' or 'free', got {self.ground!r}")
-        if self.ground == "pec" and np.any(self.mesh.nodes[:, 2] <= 0):
-            raise ValueError("surface engine: over PEC ground every triangle must be above z = 0")
+        if self.ground not in ("pec", "free", "soil"):
+            raise ValueError(f"surface engine: ground must be 'pec', 'soil' or 'free', got {self.ground!r}")
+        if self.ground == "soil" and self.soil is None:
+            raise ValueError("surface engine: ground 'soil' needs soil=(eps_r, sigma)")
+        if self.ground != "free" and np.any(self.mesh.nodes[:, 2] <= 0):
+            raise ValueError(f"surface engine: over {self.ground} every triangle must be above z = 0")
         self.c1, self.cv = _coefficients(self.mesh, self.rwg)
         cen, size = self.mesh.centroids, self.mesh.sizes
-        self.near = [self._near_pairs(cen, size, img) for img in ((False, True) if self.ground == "pec" else (False,))]
+        self.near = [self._near_pairs(cen, size, img) for img in ((False,) if self.ground == "free" else (False, True))]
 
     def _near_pairs(self, cen: np.ndarray, size: np.ndarray, image: bool) -> np.ndarray:
         src = cen * np.array([1, 1, -1]) if image else cen
@@ -257,6 +276,26 @@ class Problem:
     @property
     def n(self) -> int:
         return self.rwg.n
+
+    def image_weights(self, freq_hz: float) -> tuple[float | complex, float | complex] | None:
+        """Weights (vector, scalar potential) of the image kernel exp(-jkR')/R': the
+        reversed current over PEC (-1, -1); over soil only the quasi-static charge image
+        (0, K_q), the rest being the tabulated reflected kernels; None in free space."""
+        if self.ground == "pec":
+            return -1.0, -1.0
+        if self.ground == "soil":
+            return 0.0, charge_image(soil_permittivity(*self.soil, freq_hz))
+        return None
+
+    def reflected_kernels(self, freq_hz: float) -> ReflectedKernels | None:
+        """The soil's smooth reflected kernels for this mesh's height sums, or None."""
+        if self.ground != "soil":
+            return None
+        levels = np.unique(np.round(self.mesh.nodes[:, 2], 9))
+        zetas = (levels[:, None] + levels[None, :]).ravel()
+        xy = self.mesh.nodes[:, :2]
+        rho_max = float(np.hypot(*(xy.max(axis=0) - xy.min(axis=0)))) + 0.1
+        return ReflectedKernels.build(freq_hz, *self.soil, zetas, rho_max)
 
 
 def _subdivided(rule: tuple[np.ndarray, np.ndarray], level: int) -> tuple[np.ndarray, np.ndarray]:
@@ -330,20 +369,40 @@ def _far_rule_pairs(mesh: TriMesh, pairs: np.ndarray, k: float, image: bool) -> 
     return _product_rule(p[o], w[o], p[s], w[s], zs, k)
 
 
-def _near_corrections(prob: Problem, k: float, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(pairs [n, 2], corrections [6, n]): accurate minus 3-point moments of the near pairs
-    whose observation triangle is in ``obs`` (a mask), direct and image (with its sign)."""
-    all_pairs, all_corr = [], []
+def _reflected_near(mesh: TriMesh, pairs: np.ndarray, kernels: ReflectedKernels) -> tuple[np.ndarray, np.ndarray]:
+    """Near pairs' soil-reflected moments by 7 x 7 points minus the fill's 3 x 3 (the kernels
+    are smooth, but vary on the scale of the soil wavelength, about a plate cell)."""
+    o, s = pairs[:, 0], pairs[:, 1]
+    zs = mesh.nodes[mesh.tris[s, 0], 2]
+    (p7, w7), (p3, w3) = _points(mesh, _Q7), _points(mesh, _Q3)
+    acc_a, acc_q = _reflected_rule(p7[o], w7[o], p7[s], w7[s], zs, kernels)
+    far_a, far_q = _reflected_rule(p3[o], w3[o], p3[s], w3[s], zs, kernels)
+    return acc_a - far_a, acc_q - far_q
+
+
+def _near_corrections(prob: Problem, k: float, obs: np.ndarray, weights: tuple | None,
+                      kernels: ReflectedKernels | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(pairs [n, 2], vector-potential corrections [6, n], scalar corrections [n]): accurate
+    minus fill moments of the near pairs whose observation triangle is in ``obs`` (a mask):
+    direct, image (with its ``weights``) and, over soil, the reflected kernels."""
+    all_pairs, all_a, all_q = [], [], []
     for img, pairs in zip((False, True), prob.near):
-        sgn = -1.0 if img else 1.0
+        wa, wq = weights if img else (1.0, 1.0)
         pairs = pairs[obs[pairs[:, 0]]]
         for start in range(0, len(pairs), 20000):
             pr = pairs[start:start + 20000]
-            all_corr.append(sgn * (_near_moments(prob.mesh, pr, k, img) - _far_rule_pairs(prob.mesh, pr, k, img)))
+            diff = _near_moments(prob.mesh, pr, k, img) - _far_rule_pairs(prob.mesh, pr, k, img)
             all_pairs.append(pr)
+            all_a.append(wa * diff)
+            all_q.append(wq * diff[0])
+            if img and kernels is not None:
+                ca, cq = _reflected_near(prob.mesh, pr, kernels)
+                all_pairs.append(pr)
+                all_a.append(ca)
+                all_q.append(cq)
     if not all_pairs:
-        return np.zeros((0, 2), int), np.zeros((6, 0), complex)
-    return np.concatenate(all_pairs), np.concatenate(all_corr, axis=1)
+        return np.zeros((0, 2), int), np.zeros((6, 0), complex), np.zeros(0, complex)
+    return np.concatenate(all_pairs), np.concatenate(all_a, axis=1), np.concatenate(all_q)
 
 
 def impedance_matrix(prob: Problem, freq_hz: float, rows: np.ndarray | None = None, block: int = 96) -> np.ndarray:
@@ -371,14 +430,14 @@ def impedance_matrix(prob: Problem, freq_hz: float, rows: np.ndarray | None = No
     area = mesh.areas
     coef = [sgn * rwg.length / (2 * area[tr]) for sgn, tr in ((1.0, rwg.plus), (-1.0, rwg.minus))]
     free = [mesh.nodes[mesh.tris[tr, fr], :2] for tr, fr in ((rwg.plus, rwg.plus_free), (rwg.minus, rwg.minus_free))]
-    pairs, corr = _near_corrections(prob, k, slot >= 0)
+    weights, kernels = prob.image_weights(freq_hz), prob.reflected_kernels(freq_hz)
+    pairs, corr, corr_q = _near_corrections(prob, k, slot >= 0, weights, kernels)
     order = np.argsort(slot[pairs[:, 0]], kind="stable")
-    pairs, corr = pairs[order], corr[:, order]
+    pairs, corr, corr_q = pairs[order], corr[:, order], corr_q[order]
     bounds = np.searchsorted(slot[pairs[:, 0]], np.arange(0, len(needed) + block, block))
     x1 = np.empty((len(needed), prob.n), dtype=complex)
     x2 = np.empty_like(x1)
     x3 = np.empty_like(x1)
-    signs = (1.0, -1.0) if prob.ground == "pec" else (1.0,)
 
     def right(m: np.ndarray, weight: int | None = None) -> np.ndarray:
         """m @ C^T for C = C1 (weight None) or Cx/Cy (weight 0/1): two column gathers."""
@@ -391,14 +450,25 @@ def impedance_matrix(prob: Problem, freq_hz: float, rows: np.ndarray | None = No
     for b, start in enumerate(range(0, len(needed), block)):
         sel = needed[start:start + block]
         obs = (q3[0][sel], q3[1][sel])
-        mo = sum(sgn * _product_rule(obs[0][:, None], obs[1][:, None], q3[0][None], q3[1][None], zt[None] * sgn, k)
-                 for sgn in signs)
+        src = (q3[0][None], q3[1][None])
+        mo = _product_rule(obs[0][:, None], obs[1][:, None], *src, zt[None], k)
+        s0_q = mo[0].copy()  # the scalar potential's S0; mo becomes the vector potential's
+        if weights is not None:
+            img = _product_rule(obs[0][:, None], obs[1][:, None], *src, -zt[None], k)
+            mo = mo + weights[0] * img if weights[0] != 0 else mo
+            s0_q += weights[1] * img[0]
+        if kernels is not None:
+            ra, rq = _reflected_rule(obs[0][:, None], obs[1][:, None], *src, zt[None], kernels)
+            mo = mo + ra
+            s0_q += rq
         lo, hi = bounds[b], bounds[b + 1]
+        at = (slot[pairs[lo:hi, 0]] - start, pairs[lo:hi, 1])
         for i in range(6):  # near pairs: the accurate values replace the 3-point ones
-            np.add.at(mo[i], (slot[pairs[lo:hi, 0]] - start, pairs[lo:hi, 1]), corr[i, lo:hi])
+            np.add.at(mo[i], at, corr[i, lo:hi])
+        np.add.at(s0_q, at, corr_q[lo:hi])
         s0, sx, sy, srr, sxs, sys_ = mo
         out = slice(start, start + len(sel))
-        x1[out] = c_a * (right(srr) - right(sx, 0) - right(sy, 1)) + 4.0 * c_phi * right(s0)  # div f = 2c
+        x1[out] = c_a * (right(srr) - right(sx, 0) - right(sy, 1)) + 4.0 * c_phi * right(s0_q)  # div f = 2c
         x2[out] = c_a * (right(s0, 0) - right(sxs))
         x3[out] = c_a * (right(s0, 1) - right(sys_))
     z = np.zeros((len(rows), prob.n), dtype=complex)
@@ -525,15 +595,25 @@ def gain_pattern(prob: Problem, sol: Solution, theta_deg: np.ndarray, phi_deg: n
     p = pts.reshape(-1, 3)
     th, ph = np.meshgrid(np.radians(theta_deg), np.radians(phi_deg), indexing="ij")
     th, ph = th.ravel(), ph.ravel()
-    n = np.zeros((th.size, 2), dtype=complex)
+    direct = np.zeros((th.size, 2), dtype=complex)
+    mirrored = np.zeros((th.size, 2), dtype=complex)  # the same currents' image at -z
     for s in range(0, th.size, chunk):
         t_, f_ = th[s:s + chunk], ph[s:s + chunk]
         sx, sy, cz = np.sin(t_) * np.cos(f_), np.sin(t_) * np.sin(f_), np.cos(t_)
         horiz = np.exp(1j * k * (np.outer(p[:, 0], sx) + np.outer(p[:, 1], sy)))
         kz = k * np.outer(p[:, 2], cz)
-        vert = 2j * np.sin(kz) if prob.ground == "pec" else np.exp(1j * kz)
-        n[s:s + chunk] = (horiz * vert).T @ jw
-    nth = n[:, 0] * np.cos(th) * np.cos(ph) + n[:, 1] * np.cos(th) * np.sin(ph)
-    nph = -n[:, 0] * np.sin(ph) + n[:, 1] * np.cos(ph)
+        direct[s:s + chunk] = (horiz * np.exp(1j * kz)).T @ jw
+        if prob.ground != "free":
+            mirrored[s:s + chunk] = (horiz * np.exp(-1j * kz)).T @ jw
+    # theta and phi parts of the horizontal current moment; the image reflects them by R_v, R_h
+    if prob.ground == "soil":
+        r_v, r_h = fresnel(np.cos(th), soil_permittivity(*prob.soil, sol.freq_hz))
+        r_v, r_h = r_v[:, None], r_h[:, None]
+    else:
+        r_v, r_h = (1.0, -1.0) if prob.ground == "pec" else (0.0, 0.0)
+    along = direct - r_v * mirrored
+    across = direct + r_h * mirrored
+    nth = np.cos(th) * (along[:, 0] * np.cos(ph) + along[:, 1] * np.sin(ph))
+    nph = -across[:, 0] * np.sin(ph) + across[:, 1] * np.cos(ph)
     u = k ** 2 * ETA0 * (np.abs(nth) ** 2 + np.abs(nph) ** 2) / (32 * np.pi ** 2)
     return (4 * np.pi * u / sol.input_power).reshape(len(theta_deg), len(phi_deg))
