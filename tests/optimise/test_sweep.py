@@ -164,3 +164,16 @@ def test_toml_values_are_type_checked_not_coerced(tmp_path, body, msg):
     p.write_text(body + ("" if "candidate" in body else "[[candidate]]\npreset = 'square-10'\n"))
     with pytest.raises(ConfigError, match=msg):
         load_config(p)
+
+
+def test_an_engine_that_cannot_solve_on_soil_is_refused_before_any_solve(monkeypatch):
+    """Candidates lie on soil: an engine that does not declare soil among its grounds is
+    refused with one line naming the way out (every shipped engine solves on soil today)."""
+    from groundplane.errors import UserInputError
+    from optimise.evaluate import EvalSettings
+    from solvers.engines.surface import SurfaceSolver
+
+    EvalSettings(engine="surface").check_scorable()
+    monkeypatch.setattr(SurfaceSolver, "grounds", ("pec", "free"))
+    with pytest.raises(UserInputError, match="solves over infinite PEC ground only"):
+        EvalSettings(engine="surface").check_scorable()

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from groundplane.antenna import BladeDipole
-from groundplane.design import Design, Soil
+from groundplane.design import Design
 from groundplane.errors import SettingsError, SolveError
 from groundplane.options import option
 from groundplane.shapes import GroundPlane
@@ -174,9 +174,6 @@ def plate_mesh(plane: GroundPlane, z: float, spacing: float) -> tuple[np.ndarray
 
 def build_mesh(design: Design, settings: SurfaceSettings) -> TriMesh:
     """The whole design as one triangle mesh (the blade above the plate, if any)."""
-    if isinstance(design.ground, Soil):
-        raise SolveError(f"{design.label()}: the surface engine solves over infinite PEC ground only (image "
-                         "theory) or in free space; over soil use --engine nec")
     zp = settings.plate_height if design.plane is not None else 0.0
     nodes, tris, feed = blade_mesh(design.antenna, zp + design.antenna.height, settings)
     if design.plane is not None:

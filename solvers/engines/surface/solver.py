@@ -1,9 +1,10 @@
 """The surface engine as a :class:`~solvers.engines.base.FrequencySolver`: a design meshed
-into triangles (``mesh.py``), solved by the RWG EFIE over infinite PEC ground (``rwg.py``)
-one frequency per worker process, with the same content-keyed, per-frequency resumable
-cache as NEC. No gain calibration: over PEC the model conserves energy (mean gain 2 over
-the upper hemisphere; radiated over input power is recorded per frequency as
-``energy_balance``, 1 for a lossless model, over PEC and in free space)."""
+into triangles (``mesh.py``), solved by the RWG EFIE over infinite PEC ground, over soil
+(Sommerfeld half-space, ``halfspace.py``) or in free space (``rwg.py``), one frequency per
+worker process, with the same content-keyed, per-frequency resumable cache as NEC. No gain
+calibration: gain = 4 pi U / P_in. Radiated over input power is recorded per frequency as
+``energy_balance``: 1 for a lossless model (over PEC and in free space), the radiation
+efficiency over soil (what the soil absorbs is lost)."""
 from __future__ import annotations
 
 from importlib import metadata
@@ -11,17 +12,18 @@ from typing import ClassVar
 
 import numpy as np
 
-from groundplane.design import Design
+from groundplane.design import Design, Soil
 from groundplane.errors import SettingsError, SolveError
 
 from ..base import FrequencySolver, Plan, available_memory_bytes, register_engine, to_one_degree, upper_mean_gain
 from .mesh import SurfaceSettings, build_mesh
 from .rwg import MirrorSymmetry, Problem, TriMesh, gain_pattern, rwg_basis, solve
 
-MODEL_VERSION = 3  # bump when the model changes: the cache key includes it
+MODEL_VERSION = 4  # bump when the model changes: the cache key includes it
 # 2: energy_balance (radiated / input power) recorded instead of the upper-hemisphere mean gain
 # 3: quadrature points exactly at their triangle's height (a self pair's 1e-17 m "distance"
 #    had wiped out self terms on some meshes); close pairs' outer rule on 16 sub-triangles
+# 4: soil (Sommerfeld half-space); PEC and free-space answers unchanged
 FAR_FIELD_STEP = 3  # deg; interpolated bicubically to 1 deg (as NEC's far field)
 
 
@@ -40,15 +42,15 @@ def check_memory(n_unknowns: int, n_triangles: int, processes: int, label: str) 
 def solve_frequency(payload: tuple, freq_mhz: float) -> tuple[np.ndarray, dict[str, float]]:
     """Worker job: the gain pattern [91, n_phi] at one frequency, the input impedance and
     the energy check (mean gain over the upper hemisphere; 2 for a lossless model)."""
-    mesh, ground, n_phi, near_factor = payload
-    prob = Problem(mesh, rwg_basis(mesh), ground, near_factor)
+    mesh, ground, n_phi, near_factor, soil = payload
+    prob = Problem(mesh, rwg_basis(mesh), ground, near_factor, soil)
     symmetry = MirrorSymmetry.of(mesh, prob.rwg) if n_phi == 91 else None  # exact, ~4x faster
     sol = solve(prob, freq_mhz * 1e6, symmetry)
     step = FAR_FIELD_STEP
     phis = np.arange(0.0, 91.0 if n_phi == 91 else 360.0, step)
-    if ground == "pec":
+    if ground != "free":
         g = to_one_degree(gain_pattern(prob, sol, np.arange(0.0, 91.0, step), phis), step, quadrant=n_phi == 91)
-        balance = upper_mean_gain(g) / 2.0  # all the power goes up
+        balance = upper_mean_gain(g) / 2.0  # all the power that is not absorbed goes up
     else:  # free space: half the power goes down, so integrate the whole sphere
         both = gain_pattern(prob, sol, np.arange(0.0, 181.0, step), phis)
         g = to_one_degree(both[: 90 // step + 1], step, quadrant=n_phi == 91)
@@ -63,12 +65,13 @@ def solve_frequency(payload: tuple, freq_mhz: float) -> tuple[np.ndarray, dict[s
 
 @register_engine
 class SurfaceSolver(FrequencySolver):
-    """Solve designs over infinite PEC ground with the surface-current (RWG) engine."""
+    """Solve designs over infinite PEC ground, soil or in free space with the surface-current
+    (RWG) engine."""
 
     name: ClassVar[str] = "surface"
     settings_class: ClassVar[type] = SurfaceSettings
     model_version: ClassVar[int] = MODEL_VERSION
-    grounds: ClassVar[tuple[str, ...]] = ("pec", "free")
+    grounds: ClassVar[tuple[str, ...]] = ("pec", "soil", "free")
 
     def engine_identity(self) -> dict[str, str]:
         deps = {}
@@ -81,8 +84,8 @@ class SurfaceSolver(FrequencySolver):
 
     def check(self, design: Design) -> None:
         if design.ground_kind not in self.grounds:
-            raise SettingsError(f"{design.label()}: the surface engine solves over infinite PEC ground only (image "
-                                "theory) or in free space; over soil use --engine nec")
+            raise SettingsError(f"{design.label()}: the surface engine cannot solve over {design.ground_kind!r} "
+                                f"ground (it solves over {', '.join(self.grounds)})")
 
     def plan(self, design: Design) -> Plan:
         try:
@@ -96,6 +99,9 @@ class SurfaceSolver(FrequencySolver):
         symmetric = design.plane is None or all(design.plane.mirror_symmetry.values())
         n_phi = 91 if symmetric else 360
         what = design.plane.describe() if design.plane else "blade"
-        label = f"{what} {'over PEC' if design.ground_kind == 'pec' else 'in free space'} ({rwg.n} unknowns)"
+        where = {"pec": "over PEC", "soil": "over soil", "free": "in free space"}[design.ground_kind]
+        label = f"{what} {where} ({rwg.n} unknowns)"
         meta = {"n_unknowns": rwg.n, "n_triangles": len(mesh.tris)}
-        return Plan(solve_frequency, (mesh, design.ground_kind, n_phi, self.settings.near_factor), n_phi, meta, label)
+        soil = (design.ground.eps_r, design.ground.sigma) if isinstance(design.ground, Soil) else None
+        payload = (mesh, design.ground_kind, n_phi, self.settings.near_factor, soil)
+        return Plan(solve_frequency, payload, n_phi, meta, label)

@@ -4,7 +4,7 @@ import pytest
 
 from groundplane.design import Design, InfinitePEC, Soil
 from groundplane.errors import SettingsError
-from groundplane.shapes import PRESETS, PolygonPlane, Star
+from groundplane.shapes import PRESETS, PolygonPlane, Square, Star
 from solvers.engines import ENGINES, make_solver
 from solvers.engines.surface.mesh import SurfaceSettings, plate_mesh
 from solvers.engines.surface.rwg import TriMesh, rwg_basis
@@ -35,9 +35,17 @@ def test_engine_is_registered_and_solves_with_the_shared_cache(tmp_path, monkeyp
     assert solver.cache_key(design, [50.0, 80.0]) != make_solver("nec").cache_key(design, [50.0, 80.0])
 
 
-def test_soil_is_refused_with_a_clear_error():
-    with pytest.raises(SettingsError, match="PEC ground only"):
-        make_solver("surface", workers=0).solve(Design(PRESETS["square-10"], Soil()), [50.0])
+def test_a_plate_over_soil_loses_power_to_the_soil_and_less_as_it_conducts():
+    """Over MRO soil the radiation efficiency is below 1 and the zenith gain below the same
+    plate's over PEC; a better-conducting soil moves both toward PEC."""
+    settings = SurfaceSettings(spacing=1.0, plate_height=0.02, blade_cells=(4, 4))
+    solver = make_solver("surface", settings, workers=0, use_cache=False)
+    plane = Square(side=3.0)
+    beams = [solver.solve(Design(plane, ground), [60.0]) for ground in (Soil(), Soil(3.5, 5.0), InfinitePEC())]
+    eff = [b.meta["energy_balance"][0] for b in beams]
+    assert 0.6 < eff[0] < eff[1] < 0.99 and eff[2] == pytest.approx(1.0, abs=1e-3)
+    zenith = [b.gain[0, 0, 0] for b in beams]
+    assert zenith[0] < zenith[1] < zenith[2]
 
 
 @pytest.mark.parametrize("kw,match", [({"spacing": 0.0}, "spacing"), ({"plate_height": -1.0}, "plate height"),
@@ -74,14 +82,17 @@ def test_nec_deck_of_a_plate_over_pec_has_perfect_ground():
     assert "GN 1" in deck and model.n_segments > 200
 
 
-@pytest.mark.parametrize("argv", [["optimise", "--shape", "square", "--max-area", "100", "--budget", "2"],
-                                  ["study", "design-study"]])
-def test_commands_on_soil_refuse_the_surface_engine_before_solving(tmp_path, capsys, argv):
+def test_cli_solves_a_plate_over_soil_with_the_surface_engine(tmp_path, monkeypatch, capsys):
+    from groundplane.beam import Beam
     from groundplane.cli import main
 
-    rc = main([*argv, "--engine", "surface", "-o", str(tmp_path / "out")])
-    assert rc == 2
-    assert "PEC ground only" in capsys.readouterr().err
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path / "cache"))
+    out = tmp_path / "soil.npz"
+    rc = main(["solve", "--engine", "surface", "--ground", "soil", "square", "--side", "3", "--mesh", "1.0",
+               "--plate-height", "0.02", "--blade-cells", "4", "4", "--freqs", "60", "--workers", "1", "-o", str(out)])
+    assert rc == 0, capsys.readouterr().err
+    assert "over soil" in capsys.readouterr().out
+    assert 0.6 < Beam.load(out).meta["energy_balance"][0] < 1.0
 
 
 def test_free_space_blade_conserves_energy_and_matches_nec():
