@@ -1,0 +1,193 @@
+"""The ground plane on soil as a solid sheet: the surface engine (RWG over a Sommerfeld
+half-space) against NEC-2's wire grid and the paper (issue 11: does the plate model set our
+FoM floor over soil?).
+
+SPEC section 2: the plate is a thin PEC sheet on the soil. NEC-2 models it as a grid of
+thin wires at least 3 radii above the soil (leaky: ``results/cross_engine.md``); the surface
+engine models the sheet itself, at a height above the soil that can go toward zero (the
+kernels are exact for any height; only the cost of tabulating them grows). Rows change one
+thing at a time: plate height at a fixed mesh, then mesh at a fixed height; then the rows of
+the design study's conclusion (i) at the mesh the ladder shows to be converged enough.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from groundplane import paper
+from groundplane.beam import Beam
+from groundplane.design import Design, Soil
+from groundplane.fom import FomSettings, figure_of_merit, fit_band_mask, narrow_band_rms
+from groundplane.shapes import PRESETS
+from solvers.engines import make_solver
+from solvers.engines.nec import NecSettings
+from solvers.engines.surface import SurfaceSettings
+
+from . import study
+from ._common import efficiency, machine, write_csv
+
+FIT_BAND = np.arange(55.0, 98.0)  # all the FoM uses: every model here is scored on these 43 frequencies
+
+
+@dataclass(frozen=True)
+class Row:
+    """One model of one preset on MRO soil."""
+
+    preset: str
+    engine: str
+    spacing: float
+    height: float
+    role: str  # "height" / "mesh" ladders on square-10, "nec" reference, "design" rows
+    blade_cells: tuple[int, int] = (12, 10)  # both engines' default
+
+    def settings(self):
+        """The engine's settings for this row (NEC: its production plate at this spacing)."""
+        if self.engine == "nec":
+            return NecSettings(spacing=self.spacing, blade_cells=self.blade_cells)
+        return SurfaceSettings(spacing=self.spacing, plate_height=self.height, blade_cells=self.blade_cells)
+
+    def label(self) -> str:
+        if self.engine == "nec":
+            d = NecSettings(spacing=self.spacing)
+            return f"NEC-2 wire grid {self.spacing:g} m, {d.plate_wire_radius * 1e3:g} mm wires, " \
+                   f"{d.plate_height * 100:g} cm up"
+        return f"surface {self.spacing:g} m, sheet {self.height * 100:g} cm up"
+
+
+HEIGHTS = (0.05, 0.02, 0.01, 0.005)
+MESHES = (0.7, 0.5, 0.35)
+MESH_HEIGHT = 0.02
+DESIGN_MESH, DESIGN_HEIGHT = 0.5, 0.01
+DESIGN_ROWS = ("square-20", "sawtooth-10-8", "sawtooth-15-12")
+
+
+def rows() -> list[Row]:
+    """The study's models, in solve order (cheapest first)."""
+    out = [Row("square-10", "nec", 0.5, NecSettings().plate_height, "nec")]
+    out += [Row("square-10", "surface", 0.5, h, "height") for h in HEIGHTS]
+    out += [Row("square-10", "surface", m, MESH_HEIGHT, "mesh") for m in MESHES if m != 0.5]
+    out += [Row(p, "surface", DESIGN_MESH, DESIGN_HEIGHT, "design") for p in DESIGN_ROWS]
+    return out
+
+
+def _measure(r: Row, beam: Beam) -> dict:
+    res = figure_of_merit(beam, FomSettings())
+    ref = paper.TABLE2_FOM_MK[paper.REFERENCE_SOLVER].get(r.preset) or paper.TABLE3_FOM_MK.get(r.preset)
+    i75 = int(np.argmin(np.abs(beam.freqs_mhz - 75.0)))
+    fom = res.lst_averaged_fom_mk
+    return {"preset": r.preset, "model": r.label(), "role": r.role, "engine": r.engine, "spacing_m": r.spacing,
+            "height_m": r.height, "fom_mk": fom, "paper_mk": ref, "ratio": fom / ref if ref else float("nan"),
+            "fom_lst_min_mk": float(np.min(res.fom)) * 1e3, "fom_lst_max_mk": float(np.max(res.fom)) * 1e3,
+            "efficiency_75": efficiency(beam), "zenith_75": float(beam.gain[i75, 0, 0]),
+            "narrow_rms": narrow_band_rms(beam),
+            "seconds_per_frequency": float(np.mean(beam.meta["seconds_per_frequency"])),
+            "size": int(beam.meta.get("n_unknowns", beam.meta.get("n_segments", 0)))}
+
+
+def soil_surface(out: Path, command: str, workers: int = 2, todo: list[Row] | None = None,
+                 freqs: np.ndarray = FIT_BAND) -> None:
+    """Solve every row (cached, resumable), then the table, the reading and a figure."""
+    todo = rows() if todo is None else todo
+    fit_band_mask(freqs, FomSettings().fit_band_mhz, FomSettings().n_terms)  # the set scores (fails loudly if not)
+    done: list[tuple[Row, Beam, dict]] = []
+    for r in todo:
+        beam = make_solver(r.engine, r.settings(), workers=workers, progress=True).solve(
+            Design(PRESETS[r.preset], Soil()), freqs)
+        done.append((r, beam, _measure(r, beam)))
+        _write(out, command, [d[2] for d in done], finished=False)
+    _plot(done, out / "soil_surface.png")
+    _write(out, command, [d[2] for d in done], finished=True)
+
+
+def _write(out: Path, command: str, table: list[dict], finished: bool) -> None:
+    write_csv(out / "soil_surface.csv", table)
+    lines = ["# The plate on soil as a solid sheet: surface engine vs NEC-2 vs the paper", "",
+             f"Command: `{command}` (cached, resumable solves). Machine: {machine()}.",
+             f"Soil: MRO (eps_r {Soil().eps_r}, sigma {Soil().sigma} S/m). Frequencies: the FoM's fit band, "
+             f"{FIT_BAND[0]:g}-{FIT_BAND[-1]:g} MHz every 1 MHz, for every row (the FoM uses no others). "
+             "Paper: Table 2 (FEKO) for `square-10`, Table 3 for the other rows. NEC is gain-calibrated on the "
+             "blade over PEC; the surface engine is not (gain = 4 pi U / P_in). Efficiency: upper-hemisphere mean "
+             "gain / 2 at 75 MHz (FEKO's, for the EDGES plate on soil: 0.996). Narrow rms: rms(G - its degree-12 "
+             "fit in frequency) / mean G over the upper hemisphere.", "",
+             "| preset | model | unknowns / segments | FoM (mK) | paper (mK) | ratio | FoM per LST (mK) | "
+             "efficiency | zenith gain at 75 MHz | narrow rms | s per frequency |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for t in table:
+        lines.append(f"| {t['preset']} | {t['model']} | {t['size']} | {t['fom_mk']:.1f} | {t['paper_mk']} | "
+                     f"{t['ratio']:.2f} | {t['fom_lst_min_mk']:.0f}-{t['fom_lst_max_mk']:.0f} | "
+                     f"{t['efficiency_75']:.3f} | {t['zenith_75']:.2f} | {_sci(t['narrow_rms'])} | "
+                     f"{t['seconds_per_frequency']:.1f} |")
+    if finished:
+        lines += ["", "## Reading", "", *_reading(table), "", "![zenith gain and FoM per LST](soil_surface.png)"]
+    else:
+        lines += ["", "(in progress: rows are added as their solves finish)"]
+    (out / "soil_surface.md").write_text("\n".join(lines) + "\n")
+
+
+def _sci(x: float | None) -> str:
+    return "-" if x is None else f"{x:.1e}"  # narrow rms needs enough frequencies for its fit
+
+
+def _reading(table: list[dict]) -> list[str]:
+    """What the table says, computed from its rows (a rerun keeps it true)."""
+    sq = [t for t in table if t["preset"] == "square-10"]
+    nec = next((t for t in sq if t["role"] == "nec"), None)
+    heights = sorted((t for t in sq if t["role"] == "height"), key=lambda t: -t["height_m"])
+    meshes = sorted((t for t in sq if t["role"] == "mesh" or (t["role"] == "height" and t["height_m"] == MESH_HEIGHT)),
+                    key=lambda t: -t["spacing_m"])
+    out = []
+    if nec and heights:
+        sheet = [t["narrow_rms"] for t in heights if t["narrow_rms"] is not None]
+        narrow = (f"; narrow-band structure {_sci(nec['narrow_rms'])} (NEC) vs {_sci(max(sheet))} at most (sheet)"
+                  if sheet and nec["narrow_rms"] is not None else "")
+        out.append(f"- **The sheet is not leaky.** Efficiency at 75 MHz: NEC's grid {nec['efficiency_75']:.3f}, the "
+                   f"surface sheet {min(t['efficiency_75'] for t in heights):.3f}-"
+                   f"{max(t['efficiency_75'] for t in heights):.3f} (FEKO 0.996){narrow}.")
+    if heights:
+        out.append(f"- **Plate height** ({heights[0]['spacing_m']:g} m mesh): " + ", ".join(
+            f"{t['height_m'] * 100:g} cm {t['fom_mk']:.1f} mK" for t in heights) + ".")
+    if meshes:
+        out.append(f"- **Mesh** (sheet {MESH_HEIGHT * 100:g} cm up): " + ", ".join(
+            f"{t['spacing_m']:g} m {t['fom_mk']:.1f} mK" for t in meshes) + ".")
+    pairs = [("square-10", "square-20"), ("sawtooth-10-8", "sawtooth-15-12")]
+    design = {t["preset"]: t for t in table if t["role"] == "design"
+              or (t["preset"] == "square-10" and t["engine"] == "surface" and t["spacing_m"] == DESIGN_MESH
+                  and t["height_m"] == DESIGN_HEIGHT)}
+    for small, big in pairs:
+        if small in design and big in design:
+            a, b = design[small], design[big]
+            verdict = "holds" if b["fom_mk"] < a["fom_mk"] else "does not hold"
+            out.append(f"- Conclusion (i), {small} -> {big}: {a['fom_mk']:.1f} -> {b['fom_mk']:.1f} mK (Table 3: "
+                       f"{paper.TABLE3_FOM_MK[small]:g} -> {paper.TABLE3_FOM_MK[big]:g}): **{verdict}** with the "
+                       "sheet model.")
+    return out
+
+
+def _plot(done: list[tuple[Row, Beam, dict]], path: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    from groundplane.plots import save_figure
+
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
+    for r, beam, t in done:
+        if r.preset != "square-10" or r.role == "mesh":
+            continue
+        ax1.plot(beam.freqs_mhz, beam.gain[:, 0, 0], label=t["model"], lw=1.2)
+        res = figure_of_merit(beam, FomSettings())
+        ax2.semilogy(res.lst_hours, np.asarray(res.fom) * 1e3, label=t["model"], lw=1.2)
+    ax1.set(title="square-10 on soil: zenith gain", xlabel="frequency (MHz)", ylabel="gain (linear)")
+    ax2.set(title="square-10 on soil: FoM per LST", xlabel="LST (h)", ylabel="FoM (mK)")
+    for ax in (ax1, ax2):
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)
+
+
+@study("soil-surface", "the plate on soil as a solid sheet (surface engine, Sommerfeld ground) vs NEC-2's wire "
+       "grid and the paper: plate height, mesh, conclusion (i) rows")
+def _run(out: Path, settings, command: str, **extra) -> None:
+    soil_surface(out, command, **extra)

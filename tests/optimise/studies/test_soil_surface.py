@@ -1,0 +1,21 @@
+"""The soil-surface study end to end on tiny meshes (both engines really solve on soil)."""
+import csv
+
+import numpy as np
+
+
+def test_soil_surface_study_writes_its_table_reading_and_figure(tmp_path, monkeypatch):
+    from optimise.studies.soil_surface import Row, soil_surface
+
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path / "cache"))
+    cells = (4, 4)
+    todo = [Row("square-10", "nec", 2.5, 0.005, "nec", cells),
+            Row("square-10", "surface", 2.5, 0.05, "height", cells),
+            Row("square-10", "surface", 2.5, 0.02, "height", cells)]
+    soil_surface(tmp_path, "test", workers=1, todo=todo, freqs=np.arange(55.0, 98.0, 6.0))
+    rows = list(csv.DictReader((tmp_path / "soil_surface.csv").open()))
+    assert [r["engine"] for r in rows] == ["nec", "surface", "surface"]
+    for r in rows:
+        assert 0 < float(r["fom_mk"]) < 1e4 and 0.5 < float(r["efficiency_75"]) < 1.0
+    md = (tmp_path / "soil_surface.md").read_text()
+    assert "## Reading" in md and "Plate height" in md and (tmp_path / "soil_surface.png").stat().st_size > 1000
