@@ -202,6 +202,32 @@ def _reflected_rule(po: np.ndarray, wo: np.ndarray, ps: np.ndarray, ws: np.ndarr
     return _moments(ga * w, po, ps), (gq * w).sum(axis=(-1, -2))
 
 
+def _block_moments(po: np.ndarray, wo: np.ndarray, ps: np.ndarray, ws: np.ndarray, zs: np.ndarray, k: float,
+                   weights: tuple | None, kernels: ReflectedKernels | None) -> tuple[np.ndarray, np.ndarray]:
+    """The fill's 3-point moments of a block, every kernel summed before the moments are
+    taken (one set of moments, not one per kernel): the six of the vector potential's
+    kernel (direct + image weight x image + soil's S(R_TE)) and S0 of the scalar
+    potential's (direct + its image weight x image + S(R_q - K_q)). The same sums as
+    ``_product_rule`` and ``_reflected_rule`` term by term, which the near-pair corrections
+    subtract."""
+    d = po[..., :, None, :2] - ps[..., None, :, :2]
+    rho2 = np.einsum("...k,...k->...", d, d)
+    zo = po[..., :, None, 2]
+    w = wo[..., :, None] * ws[..., None, :]
+    g_dir = _kernel(np.sqrt(rho2 + (zo - zs[..., None, None]) ** 2), k) * w
+    g_a, g_q = g_dir, g_dir
+    if weights is not None:
+        zeta = zo + zs[..., None, None]
+        g_img = _kernel(np.sqrt(rho2 + zeta ** 2), k) * w
+        g_a = g_a + weights[0] * g_img if weights[0] != 0 else g_a
+        g_q = g_q + weights[1] * g_img
+        if kernels is not None:
+            ga, gq = kernels.lookup(np.sqrt(rho2), zeta)
+            g_a = g_a + ga * w
+            g_q = g_q + gq * w
+    return _moments(g_a, po, ps), g_q.sum(axis=(-1, -2))
+
+
 def potential_integrals(rho: np.ndarray, d: np.ndarray, verts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Closed-form integrals over flat triangles of 1/R and (rho' - rho)/R (Wilton et al.
     1984), for observation points with in-plane position ``rho`` [..., 2] at height ``d``
@@ -450,17 +476,8 @@ def impedance_matrix(prob: Problem, freq_hz: float, rows: np.ndarray | None = No
     for b, start in enumerate(range(0, len(needed), block)):
         sel = needed[start:start + block]
         obs = (q3[0][sel], q3[1][sel])
-        src = (q3[0][None], q3[1][None])
-        mo = _product_rule(obs[0][:, None], obs[1][:, None], *src, zt[None], k)
-        s0_q = mo[0].copy()  # the scalar potential's S0; mo becomes the vector potential's
-        if weights is not None:
-            img = _product_rule(obs[0][:, None], obs[1][:, None], *src, -zt[None], k)
-            mo = mo + weights[0] * img if weights[0] != 0 else mo
-            s0_q += weights[1] * img[0]
-        if kernels is not None:
-            ra, rq = _reflected_rule(obs[0][:, None], obs[1][:, None], *src, zt[None], kernels)
-            mo = mo + ra
-            s0_q += rq
+        mo, s0_q = _block_moments(obs[0][:, None], obs[1][:, None], q3[0][None], q3[1][None], zt[None], k,
+                                  weights, kernels)
         lo, hi = bounds[b], bounds[b + 1]
         at = (slot[pairs[lo:hi, 0]] - start, pairs[lo:hi, 1])
         for i in range(6):  # near pairs: the accurate values replace the 3-point ones
