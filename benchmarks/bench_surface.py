@@ -1,7 +1,7 @@
 """Surface-engine (RWG) solve speed: where the time per frequency goes, with and without
-the mirror-symmetry reduction, on the blade over PEC and a plate above PEC.
+the mirror-symmetry reduction, on the blade over PEC, a plate above PEC and a plate on soil.
 
-    .venv/bin/python benchmarks/bench_surface.py [--cases blade blade-24x20 square-10@0.5] [--freq 75]
+    .venv/bin/python benchmarks/bench_surface.py [--cases blade blade-24x20 square-10@0.5 square-10@0.5/soil] [--freq 75]
 
 For each case, one frequency in this process with one BLAS thread: mesh and basis, the
 full N x N fill, its LU solve and the far field (the baseline), then the reduced solve of
@@ -21,7 +21,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 import scipy.linalg  # noqa: E402
 
-from groundplane.design import Design, InfinitePEC  # noqa: E402
+from groundplane.design import Design, InfinitePEC, Soil  # noqa: E402
 from groundplane.shapes import PRESETS  # noqa: E402
 from solvers.engines.surface.mesh import SurfaceSettings, build_mesh  # noqa: E402
 from solvers.engines.surface.rwg import (  # noqa: E402
@@ -36,11 +36,15 @@ from solvers.engines.surface.rwg import (  # noqa: E402
 
 
 def case(name: str) -> tuple[Design, SurfaceSettings]:
-    """'blade', 'blade-24x20' (panel cells) or 'PRESET@SPACING' (a plate 5 cm above PEC)."""
+    """'blade', 'blade-24x20' (panel cells), 'PRESET@SPACING' (a plate 5 cm above PEC) or
+    'PRESET@SPACING/soil' (a sheet 5 mm above MRO soil)."""
     if name.startswith("blade"):
         cells = tuple(int(c) for c in name.split("-")[1].split("x")) if "-" in name else (12, 10)
         return Design(None, InfinitePEC()), SurfaceSettings(blade_cells=cells)
+    name, _, ground = name.partition("/")
     preset, spacing = name.split("@")
+    if ground == "soil":
+        return Design(PRESETS[preset], Soil()), SurfaceSettings(spacing=float(spacing), plate_height=0.005)
     return Design(PRESETS[preset], InfinitePEC()), SurfaceSettings(spacing=float(spacing))
 
 
@@ -48,7 +52,8 @@ def run(name: str, freq_mhz: float) -> None:
     design, settings = case(name)
     t0 = time.perf_counter()
     mesh = build_mesh(design, settings)
-    prob = Problem(mesh, rwg_basis(mesh), "pec", settings.near_factor)
+    soil = (design.ground.eps_r, design.ground.sigma) if isinstance(design.ground, Soil) else None
+    prob = Problem(mesh, rwg_basis(mesh), design.ground_kind, settings.near_factor, soil)
     sym = MirrorSymmetry.of(mesh, prob.rwg)
     t_mesh = time.perf_counter() - t0
     f = freq_mhz * 1e6
@@ -75,7 +80,7 @@ def run(name: str, freq_mhz: float) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--cases", nargs="+", default=["blade", "blade-24x20", "square-10@0.5"])
+    ap.add_argument("--cases", nargs="+", default=["blade", "blade-24x20", "square-10@0.5", "square-10@0.5/soil"])
     ap.add_argument("--freq", type=float, default=75.0)
     args = ap.parse_args()
     print(f"one frequency ({args.freq:g} MHz), one process, one BLAS thread")
