@@ -40,12 +40,12 @@ def case(name: str) -> tuple[Design, SurfaceSettings]:
     'PRESET@SPACING/soil' (a sheet 5 mm above MRO soil)."""
     if name.startswith("blade"):
         cells = tuple(int(c) for c in name.split("-")[1].split("x")) if "-" in name else (12, 10)
-        return Design(None, InfinitePEC()), SurfaceSettings(blade_cells=cells)
+        return Design(None, InfinitePEC()), SurfaceSettings(blade_cells=cells, plate_height=0.05)
     name, _, ground = name.partition("/")
     preset, spacing = name.split("@")
     if ground == "soil":
         return Design(PRESETS[preset], Soil()), SurfaceSettings(spacing=float(spacing), plate_height=0.005)
-    return Design(PRESETS[preset], InfinitePEC()), SurfaceSettings(spacing=float(spacing))
+    return Design(PRESETS[preset], InfinitePEC()), SurfaceSettings(spacing=float(spacing), plate_height=0.05)
 
 
 def run(name: str, freq_mhz: float) -> None:

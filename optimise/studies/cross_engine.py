@@ -71,7 +71,7 @@ def cases(m: Meshes = Meshes()) -> list[Case]:
     bx, by = m.blade_fine
 
     def surf(**kw) -> SurfaceSettings:
-        return SurfaceSettings(blade_cells=m.blade, **kw)
+        return SurfaceSettings(**{"blade_cells": m.blade, "plate_height": PLATE_HEIGHT_M, **kw})
 
     def nec_eq(spacing: float, role: str) -> Case:
         r = equal_area_radius(spacing)
@@ -84,7 +84,7 @@ def cases(m: Meshes = Meshes()) -> list[Case]:
         Case("blade over PEC", f"surface, {m.blade[0]} x {m.blade[1]} solid panels", blade, "surface", surf(),
              "blade-surface"),
         Case("blade over PEC", f"surface, {bx} x {by} solid panels", blade, "surface",
-             SurfaceSettings(blade_cells=m.blade_fine), "blade-ref", reference=True),
+             surf(blade_cells=m.blade_fine), "blade-ref", reference=True),
         Case(fc, f"NEC-2, {m.plate:g} m grid, {r0 * 1e3:g} mm wires (production)", free, "nec",
              NecSettings(spacing=m.plate, plate_height=FREE_SPACE_HEIGHT_M), "free-nec-production"),
         nec_eq(m.plate, "free-nec-equal-area"),

@@ -26,11 +26,13 @@ class SurfaceSettings:
     """How a design is meshed into triangles for the surface engine (lengths in metres).
 
     ``--mesh``, ``--plate-height`` and ``--blade-cells`` are the same flags as NEC's and
-    mean the same things (plate cell size, plate height above the ground, panel cells)."""
+    mean the same things (plate cell size, plate height above the ground, panel cells). The
+    plate height defaults to 5 mm, as NEC's: the real plate lies on the soil, and the FoM of
+    a sheet on soil falls as the gap closes (``results/soil_surface.md``)."""
 
     spacing: float = option(0.5, "plate mesh spacing (m): NEC wire-grid cell, surface-engine triangle size",
                             flag="--mesh", metavar="SPACING")
-    plate_height: float = option(0.05, "plate height above the ground (m)")
+    plate_height: float = option(0.005, "plate height above the ground (m)")
     blade_cells: tuple[int, int] = option((12, 10), "blade panel grid cells along and across the axis",
                                           metavar=("NX", "NY"))
     feed_width: float = option(0.04, "surface engine: width (m) of the strip that joins the panels across the gap "
