@@ -148,10 +148,10 @@ class ReflectedKernels:
     def lookup(self, rho: np.ndarray, zeta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(S(R_TE), S(R_q - K_q)) at horizontal distances ``rho`` and height sums ``zeta``
         (broadcastable; every zeta must be one the kernels were built for)."""
-        rho, zeta = np.broadcast_arrays(rho, zeta)
-        which = np.searchsorted(self.zetas, np.round(zeta, 9))
-        which = np.minimum(which, len(self.zetas) - 1)
-        if not np.allclose(self.zetas[which], zeta, atol=1e-8):
+        zeta = np.asarray(zeta, dtype=float)
+        which = np.searchsorted(0.5 * (self.zetas[1:] + self.zetas[:-1]), zeta)  # the nearest table
+        seen = np.unique(zeta)  # checked on the few distinct values, not on every point
+        if np.abs(self.zetas[np.searchsorted(0.5 * (self.zetas[1:] + self.zetas[:-1]), seen)] - seen).max() > 1e-8:
             raise ValueError("surface engine: a height sum with no reflected-kernel table")
         x = rho / self.step
         i = np.minimum(x.astype(np.int64), self.tables.shape[2] - 2)

@@ -254,3 +254,15 @@ def test_strip_dipole_over_soil_against_nec_sommerfeld(height, ground):
     assert abs(sol.input_impedance.real - z_nec.real) < 0.02 * z_nec.real + 0.1, (sol.input_impedance, z_nec)
     assert abs(sol.input_impedance.imag - z_nec.imag) < 2.0, (sol.input_impedance, z_nec)
     assert np.abs(gain - g_nec).max() < 0.005 * g_nec.max(), np.abs(gain - g_nec).max()
+
+
+def test_reflected_kernel_lookup_interpolates_the_integrals_and_refuses_unknown_heights():
+    from solvers.engines.surface.halfspace import C0, ReflectedKernels, reflected_integrals, soil_permittivity
+
+    kern = ReflectedKernels.build(75e6, 3.5, 0.02, np.array([0.01, 0.5]), 12.0)
+    rho = np.array([0.003, 0.4, 2.7, 11.0])
+    a, q = kern.lookup(rho, np.full(rho.shape, 0.5))
+    ref_a, ref_q = reflected_integrals(rho, 2 * np.pi * 75e6 / C0, soil_permittivity(3.5, 0.02, 75e6), 0.5)
+    assert np.abs(a - ref_a).max() < 1e-4 and np.abs(q - ref_q).max() < 1e-4
+    with pytest.raises(ValueError, match="height sum"):
+        kern.lookup(rho, np.full(rho.shape, 0.2))
