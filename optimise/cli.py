@@ -161,6 +161,8 @@ def _setup_study(p: argparse.ArgumentParser):
     p.add_argument("--compare-mesh", type=float, metavar="SPACING",
                    help="design-study: also solve at this plate spacing and report how rows and conclusions move")
     p.add_argument("--feko-dir", type=Path, help="feko-40mhz: folder of the four FEKO quadrant files")
+    p.add_argument("--cached-only", action="store_true",
+                   help="soil-surface: report the rows already solved and name the rest (an interim report)")
     add_eval_options(p)
     return _run_study_cmd
 
@@ -180,6 +182,10 @@ def _run_study_cmd(args: argparse.Namespace) -> int:
         if args.name != "feko-40mhz":
             raise CLIError("--feko-dir is for feko-40mhz")
         extra["feko_dir"] = args.feko_dir
+    if args.cached_only:
+        if args.name != "soil-surface":
+            raise CLIError("--cached-only is for soil-surface")
+        extra["cached_only"] = True
     settings = None
     if s.uses_settings:
         settings = eval_settings(args)
