@@ -6,8 +6,9 @@ SPEC section 2: the plate is a thin PEC sheet on the soil. NEC-2 models it as a 
 thin wires at least 3 radii above the soil (leaky: ``results/cross_engine.md``); the surface
 engine models the sheet itself, at a height above the soil that can go toward zero (the
 kernels are exact for any height; only the cost of tabulating them grows). Rows change one
-thing at a time: plate height at a fixed mesh, then mesh at a fixed height; then the rows of
-the design study's conclusion (i) at the mesh the ladder shows to be converged enough.
+thing at a time: plate height at a fixed mesh, then mesh at two heights; then the nine rows
+of the design study (Table 3, Spearman and conclusions (i)-(iii)) and the extended plane
+(Table 2) on one sheet model, fixed before any of those rows was solved.
 """
 from __future__ import annotations
 
