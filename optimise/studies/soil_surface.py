@@ -20,7 +20,7 @@ import numpy as np
 from groundplane import paper
 from groundplane.beam import Beam
 from groundplane.design import Design, Soil
-from groundplane.fom import FomSettings, figure_of_merit, fit_band_mask, narrow_band_rms
+from groundplane.fom import FomResult, FomSettings, figure_of_merit, fit_band_mask, narrow_band_rms
 from groundplane.shapes import PRESETS
 from solvers.engines import make_solver
 from solvers.engines.nec import NecSettings
@@ -40,7 +40,7 @@ class Row:
     engine: str
     spacing: float
     height: float
-    role: str  # "height" / "mesh" ladders on square-10, "nec" reference, "design" rows
+    role: str  # "height" / "mesh" ladders on square-10, "nec" reference, "design" rows, "extended"
     blade_cells: tuple[int, int] = (12, 10)  # both engines' default
 
     def settings(self):
@@ -50,8 +50,9 @@ class Row:
         return SurfaceSettings(spacing=self.spacing, plate_height=self.height, blade_cells=self.blade_cells)
 
     def label(self) -> str:
+        """The model in words, for the table."""
         if self.engine == "nec":
-            d = NecSettings(spacing=self.spacing)
+            d = self.settings()
             return f"NEC-2 wire grid {self.spacing:g} m, {d.plate_wire_radius * 1e3:g} mm wires, " \
                    f"{d.plate_height * 100:g} cm up"
         return f"surface {self.spacing:g} m, sheet {self.height * 100:g} cm up"
@@ -80,8 +81,8 @@ def rows() -> list[Row]:
     return out
 
 
-def _measure(r: Row, beam: Beam) -> dict:
-    res = figure_of_merit(beam, FomSettings())
+def _measure(r: Row, beam: Beam, res: FomResult) -> dict:
+    """The table's row for ``r`` from its beam and FoM result ``res``."""
     ref = paper.TABLE2_FOM_MK[paper.REFERENCE_SOLVER].get(r.preset) or paper.TABLE3_FOM_MK.get(r.preset)
     i75 = int(np.argmin(np.abs(beam.freqs_mhz - 75.0)))
     fom = res.lst_averaged_fom_mk
@@ -103,7 +104,7 @@ def soil_surface(out: Path, command: str, workers: int = 2, todo: list[Row] | No
     interim report; the command without it solves them)."""
     todo = rows() if todo is None else todo
     fit_band_mask(freqs, FomSettings().fit_band_mhz, FomSettings().n_terms)  # the set scores (fails loudly if not)
-    done: list[tuple[Row, Beam, dict]] = []
+    done: list[tuple[Row, Beam, dict, FomResult]] = []
     missing: list[Row] = []
     for r in todo:
         solver = make_solver(r.engine, r.settings(), workers=workers, progress=True)
@@ -112,7 +113,8 @@ def soil_surface(out: Path, command: str, workers: int = 2, todo: list[Row] | No
         if beam is None:
             missing.append(r)
             continue
-        done.append((r, beam, _measure(r, beam)))
+        res = figure_of_merit(beam, FomSettings())  # once per row: the table and the figure use it
+        done.append((r, beam, _measure(r, beam, res), res))
         _write(out, command, [d[2] for d in done], finished=False)
     _plot(done, out / "soil_surface.png")
     _write(out, command, [d[2] for d in done], finished=True, missing=missing)
@@ -222,17 +224,16 @@ def _reading(table: list[dict]) -> list[str]:
     return out
 
 
-def _plot(done: list[tuple[Row, Beam, dict]], path: Path) -> None:
+def _plot(done: list[tuple[Row, Beam, dict, FomResult]], path: Path) -> None:
     import matplotlib.pyplot as plt
 
     from groundplane.plots import save_figure
 
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
-    for r, beam, t in done:
+    for r, beam, t, res in done:
         if r.preset != "square-10" or r.role == "mesh":
             continue
         ax1.plot(beam.freqs_mhz, beam.gain[:, 0, 0], label=t["model"], lw=1.2)
-        res = figure_of_merit(beam, FomSettings())
         ax2.semilogy(res.lst_hours, np.asarray(res.fom) * 1e3, label=t["model"], lw=1.2)
     ax1.set(title="square-10 on soil: zenith gain", xlabel="frequency (MHz)", ylabel="gain (linear)")
     ax2.set(title="square-10 on soil: FoM per LST", xlabel="LST (h)", ylabel="FoM (mK)")

@@ -41,7 +41,8 @@ def check_memory(n_unknowns: int, n_triangles: int, processes: int, label: str) 
 
 def solve_frequency(payload: tuple, freq_mhz: float) -> tuple[np.ndarray, dict[str, float]]:
     """Worker job: the gain pattern [91, n_phi] at one frequency, the input impedance and
-    the energy check (mean gain over the upper hemisphere; 2 for a lossless model)."""
+    the energy balance (radiated / input power: 1 for a lossless model over PEC or in free
+    space, the radiation efficiency over soil)."""
     mesh, ground, n_phi, near_factor, soil = payload
     prob = Problem(mesh, rwg_basis(mesh), ground, near_factor, soil)
     symmetry = MirrorSymmetry.of(mesh, prob.rwg) if n_phi == 91 else None  # exact, ~4x faster
