@@ -103,8 +103,8 @@ def blade_mesh(antenna: BladeDipole, z: float, settings: SurfaceSettings) -> tup
     """The two solid panels and the feed strip at height ``z``: (nodes, tris, feed edges)."""
     nx, ny = settings.blade_cells
     half_gap, wf = antenna.gap / 2, settings.feed_width
-    if wf >= antenna.panel_width:
-        raise SettingsError(f"feed_width {wf} m must be narrower than the panels ({antenna.panel_width} m)")
+    if wf > antenna.panel_width + 1e-9:  # equal: the strip fills the gap (an edge port along the panels)
+        raise SettingsError(f"feed_width {wf} m must not be wider than the panels ({antenna.panel_width} m)")
     along = half_gap + antenna.panel_length * graded(nx, settings.edge_grading)
     xs = np.unique(np.round(np.concatenate([-along[::-1], [0.0], along]), 12))
     across = antenna.panel_width * (graded(ny, settings.edge_grading) - 0.5)

@@ -53,3 +53,20 @@ def test_shield_walls_close_a_box_standing_on_the_ground():
         assert np.isclose(abs(x), sx / 2) or np.isclose(abs(y), sy / 2)
     top = max(max(a[2], b[2]) for a, b in vertical)
     assert np.isclose(top, sh)
+
+
+def test_feed_span_puts_a_source_on_every_gap_wire_it_covers():
+    ant = PEC.antenna
+    ny = NecSettings().blade_cells[1]
+    for span, nodes in ((0.26, 3), (ant.panel_width, ny + 1)):  # panel-grid nodes with |y| <= span / 2
+        m = Parts(feed_span=span)
+        m = _model_with(PEC, m)
+        assert m.sections == 2
+        crossing = [w for w in m.wires if np.isclose(w.p1[2], ant.height) and w.p1[1] == w.p2[1]
+                    and np.isclose(abs(w.p1[0] - w.p2[0]), ant.gap)]
+        # the kept half holds one of each +-y pair; NEC's half-turn copy brings the other
+        assert 2 * len(crossing) == nodes - 1
+        volts = sorted(abs(v) for _, v in m.sources())
+        assert volts == [0.5, 0.5] + [1.0] * (nodes - 1)  # the split y = 0 feed, then one per wire (or its copy)
+        fed = {tag for tag, _, _ in m.feeds}
+        assert all(w.tag in fed for w in crossing)

@@ -107,3 +107,18 @@ def test_free_space_blade_conserves_energy_and_matches_nec():
     assert beam.gain[0, 0, 0] == pytest.approx(nec.gain[0, 0, 0], rel=0.03)
     assert "GN -1" in __import__("solvers.engines.nec", fromlist=["build_model"]).build_model(
         design, NecSettings()).to_deck([70.0])
+
+
+def test_a_feed_as_wide_as_the_panels_is_an_edge_port_along_the_whole_gap():
+    from groundplane.antenna import BladeDipole
+    from solvers.engines.surface.mesh import blade_mesh
+
+    ant = BladeDipole()
+    nodes, tris, feed = blade_mesh(ant, ant.height, SurfaceSettings(feed_width=ant.panel_width))
+    ys = nodes[feed].reshape(-1, 3)[:, 1]
+    assert ys.min() == pytest.approx(-ant.panel_width / 2) and ys.max() == pytest.approx(ant.panel_width / 2)
+    lengths = np.linalg.norm(nodes[feed[:, 1]] - nodes[feed[:, 0]], axis=1)
+    assert lengths.sum() == pytest.approx(ant.panel_width)  # the feed edges tile the gap, none twice
+    assert np.allclose(nodes[feed].reshape(-1, 3)[:, 0], 0.0)
+    with pytest.raises(SettingsError, match="feed_width"):
+        blade_mesh(ant, ant.height, SurfaceSettings(feed_width=ant.panel_width + 0.01))
