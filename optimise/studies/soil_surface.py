@@ -40,14 +40,16 @@ class Row:
     engine: str
     spacing: float
     height: float
-    role: str  # "height" / "mesh" ladders on square-10, "nec" reference, "design" rows, "extended"
+    role: str  # "height" / "mesh" ladders on square-10, "nec" reference, "design" rows, "extended", "check"
     blade_cells: tuple[int, int] = (12, 10)  # both engines' default
+    feed_width: float = SurfaceSettings().feed_width
 
     def settings(self):
         """The engine's settings for this row (NEC: its production plate at this spacing)."""
         if self.engine == "nec":
             return NecSettings(spacing=self.spacing, blade_cells=self.blade_cells)
-        return SurfaceSettings(spacing=self.spacing, plate_height=self.height, blade_cells=self.blade_cells)
+        return SurfaceSettings(spacing=self.spacing, plate_height=self.height, blade_cells=self.blade_cells,
+                               feed_width=self.feed_width)
 
     def label(self) -> str:
         """The model in words, for the table."""
@@ -55,7 +57,9 @@ class Row:
             d = self.settings()
             return f"NEC-2 wire grid {self.spacing:g} m, {d.plate_wire_radius * 1e3:g} mm wires, " \
                    f"{d.plate_height * 100:g} cm up"
-        return f"surface {self.spacing:g} m, sheet {self.height * 100:g} cm up"
+        feed = "" if self.feed_width == SurfaceSettings().feed_width else \
+            f", feed along {self.feed_width * 100:g} cm of the gap"
+        return f"surface {self.spacing:g} m, sheet {self.height * 100:g} cm up{feed}"
 
 
 HEIGHTS = (0.05, 0.02, 0.01, 0.005, 0.0025)  # on the 0.5 m mesh
@@ -70,15 +74,32 @@ SOLVE_ORDER = ("square-10", "plus-15", "sawtooth-10-8", "sawtooth-15-12", "squar
                "sawtooth-20-20", "extended", "square-30")  # cheapest first: an interrupted run has the most rows
 
 
+# Checks on the design model where it disagrees most with the paper (the large sawtooths, x2),
+# one change each: the sheet half as high, a finer mesh; then the feed spread along the whole
+# gap (an edge port), the one blade change that moves the FoM over PEC toward FEKO's
+# (results/blade_over_pec.md), on Table 2's two plates.
+CHECK_PRESET = "sawtooth-20-16"
+EDGE_PORT = 1.252  # the panels' width across the axis (SPEC section 1)
+
+
+def check_rows() -> list[Row]:
+    """The checks, each one change away from a design-model row."""
+    return [Row(CHECK_PRESET, "surface", DESIGN_MESH, DESIGN_HEIGHT / 2, "check"),
+            Row("square-10", "surface", DESIGN_MESH, DESIGN_HEIGHT, "check", feed_width=EDGE_PORT),
+            Row("extended", "surface", DESIGN_MESH, DESIGN_HEIGHT, "check", feed_width=EDGE_PORT),
+            Row(CHECK_PRESET, "surface", 0.5, DESIGN_HEIGHT, "check")]  # ~75 min on one process
+
+
 def rows() -> list[Row]:
     """The study's models, in solve order: the ladders on ``square-10``, then the design
-    rows and the extended plane (Table 2) at the design model, smallest plate first."""
+    rows and the extended plane (Table 2) at the design model, smallest plate first, then
+    the checks."""
     out = [Row("square-10", "nec", 0.5, NecSettings().plate_height, "nec")]
     out += [Row("square-10", "surface", 0.5, h, "height") for h in HEIGHTS]
     out += [Row("square-10", "surface", m, h, "mesh") for m, h in MESHES]
     out += [Row(p, "surface", DESIGN_MESH, DESIGN_HEIGHT, "extended" if p == "extended" else "design")
             for p in SOLVE_ORDER]
-    return out
+    return out + check_rows()
 
 
 def _measure(r: Row, beam: Beam, res: FomResult) -> dict:
@@ -160,7 +181,7 @@ def _reading(table: list[dict]) -> list[str]:
     """What the table says, computed from its rows (a rerun keeps it true)."""
     from .design_study import conclusions, rank_correlation
 
-    sq = [t for t in table if t["preset"] == "square-10" and t["engine"] == "surface"]
+    sq = [t for t in table if t["preset"] == "square-10" and t["engine"] == "surface" and t["role"] != "check"]
     nec = next((t for t in table if t["role"] == "nec"), None)
     heights = sorted((t for t in sq if t["role"] == "height"), key=lambda t: -t["height_m"])
     out = []
@@ -198,6 +219,7 @@ def _reading(table: list[dict]) -> list[str]:
     if ext:
         out.append(f"- **The extended plane** ({ext['model']}): {ext['fom_mk']:.1f} mK against Table 2's "
                    f"{ext['paper_mk']:g} (FEKO; CST-I 101): x{ext['ratio']:.2f}.")
+    out += _checks(table)
     design = [{"preset": t["preset"], "paper_fom_mk": paper.TABLE3_FOM_MK[t["preset"]], "our_fom_mk": round(t["fom_mk"], 1)}
               for t in table if t["role"] == "design"]
     if design:
@@ -224,6 +246,21 @@ def _reading(table: list[dict]) -> list[str]:
     return out
 
 
+def _checks(table: list[dict]) -> list[str]:
+    """The check rows against the design-model row each changes one thing of."""
+    base = {t["preset"]: t for t in table if t["role"] in ("design", "extended")}
+    out = []
+    for t in (t for t in table if t["role"] == "check" and t["preset"] in base):
+        b = base[t["preset"]]
+        change = (f"feed along {t['model'].split('feed along ')[1]}" if "feed along" in t["model"] else
+                  f"sheet {t['height_m'] * 100:g} cm up" if t["height_m"] != b["height_m"] else
+                  f"{t['spacing_m']:g} m mesh")
+        out.append(f"- **Check, {t['preset']}, {change}**: {b['fom_mk']:.1f} -> {t['fom_mk']:.1f} mK "
+                   f"({100 * (t['fom_mk'] / b['fom_mk'] - 1):+.1f} %; paper {t['paper_mk']:g}, now "
+                   f"x{t['ratio']:.2f}).")
+    return out
+
+
 def _plot(done: list[tuple[Row, Beam, dict, FomResult]], path: Path) -> None:
     import matplotlib.pyplot as plt
 
@@ -231,7 +268,7 @@ def _plot(done: list[tuple[Row, Beam, dict, FomResult]], path: Path) -> None:
 
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
     for r, beam, t, res in done:
-        if r.preset != "square-10" or r.role == "mesh":
+        if r.preset != "square-10" or r.role in ("mesh", "check"):
             continue
         ax1.plot(beam.freqs_mhz, beam.gain[:, 0, 0], label=t["model"], lw=1.2)
         ax2.semilogy(res.lst_hours, np.asarray(res.fom) * 1e3, label=t["model"], lw=1.2)

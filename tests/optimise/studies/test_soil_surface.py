@@ -13,12 +13,14 @@ def test_soil_surface_study_writes_its_table_reading_and_figure(tmp_path, monkey
             Row("square-10", "surface", 2.5, 0.05, "height", cells),
             Row("square-10", "surface", 2.5, 0.02, "height", cells),
             Row("square-10", "surface", 2.5, 0.02, "design", cells),
-            Row("square-20", "surface", 2.5, 0.02, "design", cells)]
+            Row("square-20", "surface", 2.5, 0.02, "design", cells),
+            Row("square-20", "surface", 2.5, 0.01, "check", cells)]
     soil_surface(tmp_path, "test", workers=1, todo=todo, freqs=np.arange(55.0, 98.0, 6.0))
     rows = list(csv.DictReader((tmp_path / "soil_surface.csv").open()))
-    assert [r["engine"] for r in rows] == ["nec"] + ["surface"] * 4
+    assert [r["engine"] for r in rows] == ["nec"] + ["surface"] * 5
     for r in rows:
         assert 0 < float(r["fom_mk"]) < 1e4 and 0.5 < float(r["efficiency_75"]) < 1.0
     md = (tmp_path / "soil_surface.md").read_text()
     assert "## Reading" in md and "Plate height" in md and (tmp_path / "soil_surface.png").stat().st_size > 1000
     assert "design study on the sheet model" in md and "(i) on square-10 -> square-20" in md
+    assert "**Check, square-20, sheet 1 cm up**" in md  # one change from its design row, measured against it
