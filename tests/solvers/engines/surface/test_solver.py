@@ -122,3 +122,15 @@ def test_a_feed_as_wide_as_the_panels_is_an_edge_port_along_the_whole_gap():
     assert np.allclose(nodes[feed].reshape(-1, 3)[:, 0], 0.0)
     with pytest.raises(SettingsError, match="feed_width"):
         blade_mesh(ant, ant.height, SurfaceSettings(feed_width=ant.panel_width + 0.01))
+
+
+def test_memory_check_counts_a_mirror_reduced_solve_as_half(monkeypatch):
+    from solvers.engines.surface import solver as surface_solver
+
+    monkeypatch.setattr(surface_solver, "available_memory_bytes", lambda: 10 * 2**30)
+    n, t = 10000, 6700  # full model ~11.9 GiB on two processes, half of it when reduced
+    with pytest.raises(SettingsError, match="10000 unknowns need about"):
+        surface_solver.check_memory(n, t, 2, "big plate")
+    surface_solver.check_memory(n, t, 2, "big plate", reduced=True)
+    with pytest.raises(SettingsError):
+        surface_solver.check_memory(n, t, 4, "big plate", reduced=True)
