@@ -12,12 +12,13 @@ of the design study (Table 3, Spearman and conclusions (i)-(iii)) and the extend
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from groundplane import paper
+from groundplane.antenna import BladeDipole
 from groundplane.beam import Beam
 from groundplane.design import Design, Soil
 from groundplane.fom import FomResult, FomSettings, figure_of_merit, fit_band_mask, narrow_band_rms
@@ -43,6 +44,12 @@ class Row:
     role: str  # "height" / "mesh" ladders on square-10, "nec" reference, "design" rows, "extended", "check"
     blade_cells: tuple[int, int] = (12, 10)  # both engines' default
     feed_width: float = SurfaceSettings().feed_width
+    panel_width: float | None = None  # a diagnostic blade: panels this wide across the axis (Table 1: 1.252 m)
+
+    def design(self) -> Design:
+        """The row's design on MRO soil."""
+        antenna = BladeDipole() if self.panel_width is None else replace(BladeDipole(), panel_width=self.panel_width)
+        return Design(PRESETS[self.preset], Soil(), antenna=antenna)
 
     def settings(self):
         """The engine's settings for this row (NEC: its production plate at this spacing)."""
@@ -59,7 +66,8 @@ class Row:
                    f"{d.plate_height * 100:g} cm up"
         feed = "" if self.feed_width == SurfaceSettings().feed_width else \
             f", feed along {self.feed_width * 100:g} cm of the gap"
-        return f"surface {self.spacing:g} m, sheet {self.height * 100:g} cm up{feed}"
+        panels = "" if self.panel_width is None else f", panels {self.panel_width:g} m across (diagnostic)"
+        return f"surface {self.spacing:g} m, sheet {self.height * 100:g} cm up{feed}{panels}"
 
 
 HEIGHTS = (0.05, 0.02, 0.01, 0.005, 0.0025)  # on the 0.5 m mesh
@@ -87,6 +95,8 @@ def check_rows() -> list[Row]:
     return [Row(CHECK_PRESET, "surface", DESIGN_MESH, DESIGN_HEIGHT / 2, "check"),
             Row("square-10", "surface", DESIGN_MESH, DESIGN_HEIGHT, "check", feed_width=EDGE_PORT),
             Row("extended", "surface", DESIGN_MESH, DESIGN_HEIGHT, "check", feed_width=EDGE_PORT),
+            # panels 1.0 m across: over PEC a blade 29 % less chromatic (results/blade_over_pec.md)
+            Row("extended", "surface", DESIGN_MESH, DESIGN_HEIGHT, "check", panel_width=1.0),
             Row(CHECK_PRESET, "surface", 0.5, DESIGN_HEIGHT, "check")]  # ~75 min on one process
 
 
@@ -129,7 +139,7 @@ def soil_surface(out: Path, command: str, workers: int = 2, todo: list[Row] | No
     missing: list[Row] = []
     for r in todo:
         solver = make_solver(r.engine, r.settings(), workers=workers, progress=True)
-        design = Design(PRESETS[r.preset], Soil())
+        design = r.design()
         beam = solver.cached(design, freqs) if cached_only else solver.solve(design, freqs)
         if beam is None:
             missing.append(r)
@@ -253,6 +263,7 @@ def _checks(table: list[dict]) -> list[str]:
     for t in (t for t in table if t["role"] == "check" and t["preset"] in base):
         b = base[t["preset"]]
         change = (f"feed along {t['model'].split('feed along ')[1]}" if "feed along" in t["model"] else
+                  f"panels {t['model'].split('panels ')[1]}" if "panels " in t["model"] else
                   f"sheet {t['height_m'] * 100:g} cm up" if t["height_m"] != b["height_m"] else
                   f"{t['spacing_m']:g} m mesh")
         out.append(f"- **Check, {t['preset']}, {change}**: {b['fom_mk']:.1f} -> {t['fom_mk']:.1f} mK "
