@@ -8,7 +8,8 @@ engine models the sheet itself, at a height above the soil that can go toward ze
 kernels are exact for any height; only the cost of tabulating them grows). Rows change one
 thing at a time: plate height at a fixed mesh, then mesh at two heights; then the nine rows
 of the design study (Table 3, Spearman and conclusions (i)-(iii)) and the extended plane
-(Table 2) on one sheet model, fixed before any of those rows was solved.
+(Table 2) on one sheet model, fixed before any of those rows was solved; then checks, each
+one change from a design-model row, where the model disagrees most with the paper.
 """
 from __future__ import annotations
 
