@@ -31,8 +31,8 @@ def check_memory(n_unknowns: int, n_triangles: int, processes: int, label: str, 
     """Refuse, before any work, a mesh whose matrices do not fit in memory: Z is N x N and
     the assembly keeps three T x N products (complex doubles). A ``reduced`` (mirror-
     symmetric) solve fills a quarter of the rows; half the full figure bounds it (measured
-    peak per process: 4.7 GB at 13644 unknowns, against 11.9 GB for the full model and
-    6.0 GB for half of it: ``sawtooth-20-16`` at 0.5 m over soil)."""
+    peak resident memory per process: 4.5 GiB at 13644 unknowns, against 11.2 GiB for the
+    full model and 5.6 GiB for half of it: ``sawtooth-20-16`` at 0.5 m over soil)."""
     need = 16 * (n_unknowns ** 2 * 2 + 3 * n_triangles * n_unknowns) * processes // (2 if reduced else 1)
     have = available_memory_bytes()
     if have is not None and need > 0.8 * have:
