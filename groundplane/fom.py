@@ -52,6 +52,9 @@ class FomSettings:
                                         "(deg)", flag="--antenna-azimuth", metavar="DEG")
     site: Site = MRO
     n_lst: int = option(360, "LST bins over 24 h")
+    lst_bin_hours: float = option(0.0, "average the simulated spectra into LST bins this wide (h) before the fit, "
+                                  "as data are binned (the paper compares with data in 2 h bins); 0: every LST",
+                                  flag="--lst-bin", metavar="HOURS")
     normalise: bool = option(False, "divide by the beam integral (EDGES pipeline) instead of 4 pi")
     subtract_cmb: bool = option(False, "remove 2.725 K from the map before scaling it")
     absorption: Absorption | None = option(None, "add the Bowman et al. 2018 absorption feature to the sky",
@@ -65,10 +68,23 @@ class FomSettings:
             raise SettingsError(f"n_terms must be >= 1, got {self.n_terms}")
         if self.n_lst < 1:
             raise SettingsError(f"n_lst must be >= 1, got {self.n_lst}")
+        if self.lst_bin_hours:
+            per_bin = self.lst_bin_hours * self.n_lst / 24.0
+            if not (0 < self.lst_bin_hours <= 24 and abs(per_bin - round(per_bin)) < 1e-9
+                    and self.n_lst % round(per_bin) == 0):
+                raise SettingsError(f"--lst-bin {self.lst_bin_hours:g} h must hold a whole number of the "
+                                    f"{self.n_lst} LSTs (every {24 / self.n_lst:g} h) and divide 24 h evenly")
+
+    @property
+    def lsts_per_bin(self) -> int:
+        """How many simulated LSTs one FoM bin averages (1: no binning)."""
+        return round(self.lst_bin_hours * self.n_lst / 24.0) if self.lst_bin_hours else 1
 
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d["fit_band_mhz"] = list(self.fit_band_mhz)
+        if not self.lst_bin_hours:  # unbinned settings keep the identity (sweep keys) they always had
+            del d["lst_bin_hours"]
         return d
 
 
@@ -201,13 +217,22 @@ def linlog_residuals(freqs_mhz: np.ndarray, spectra: np.ndarray, settings: FomSe
 def fom_from_spectra(
     freqs_mhz: np.ndarray, t_ant: np.ndarray, settings: FomSettings, lst_hours: np.ndarray | None = None
 ) -> FomResult:
-    """FoM(LST) = RMS over the fit band of T_ant minus its LinLog fit (SPEC 3.6)."""
+    """FoM(LST) = RMS over the fit band of T_ant minus its LinLog fit (SPEC 3.6). With
+    ``settings.lst_bin_hours`` the spectra are first averaged into LST bins from LST 0 h
+    (as a drift scan's data are), and the FoM is per bin; ``t_ant`` and ``lst_hours`` of
+    the result are then the binned spectra and the bin centres."""
     freqs_mhz = np.asarray(freqs_mhz, dtype=float)
     mask = fit_band_mask(freqs_mhz, settings.fit_band_mhz, settings.n_terms)
-    res = linlog_residuals(freqs_mhz[mask], t_ant[mask], settings)
-    fom = np.sqrt(np.mean(res**2, axis=0))
     if lst_hours is None:
         lst_hours = lst_grid(t_ant.shape[1]) / 15.0
+    k = settings.lsts_per_bin
+    if k > 1:
+        if t_ant.shape[1] % k:
+            raise SettingsError(f"{t_ant.shape[1]} LSTs do not split into bins of {k}")
+        t_ant = t_ant.reshape(t_ant.shape[0], -1, k).mean(axis=2)
+        lst_hours = np.asarray(lst_hours)[::k] + settings.lst_bin_hours / 2
+    res = linlog_residuals(freqs_mhz[mask], t_ant[mask], settings)
+    fom = np.sqrt(np.mean(res**2, axis=0))
     return FomResult(freqs_mhz, np.asarray(lst_hours), t_ant, mask, res, fom, settings)
 
 

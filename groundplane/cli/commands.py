@@ -63,7 +63,8 @@ def _run_fom(args: argparse.Namespace) -> int:
     print(f"{result.lst_averaged_fom_mk:.2f} mK  LST-averaged FoM of {src}")
     print(f"  FoM min {result.fom.min() * 1e3:.1f} mK at LST {result.lst_hours[result.fom.argmin()]:.1f} h, "
           f"max {result.fom.max() * 1e3:.1f} mK at LST {result.lst_hours[result.fom.argmax()]:.1f} h; "
-          f"fit {settings.fit_band_mhz[0]:g}-{settings.fit_band_mhz[1]:g} MHz, {settings.n_terms}-term LinLog")
+          f"fit {settings.fit_band_mhz[0]:g}-{settings.fit_band_mhz[1]:g} MHz, {settings.n_terms}-term LinLog"
+          + (f", spectra averaged in {settings.lst_bin_hours:g} h LST bins" if settings.lst_bin_hours else ""))
     for k, v in (report or {}).get("gain_poly3_residuals", {}).items():
         if isinstance(v, dict):
             print(f"  3-term poly residual p-p of G at {k}: {v['peak_to_peak']:.4f}")

@@ -181,3 +181,32 @@ def test_narrow_band_rms_sees_resonances_not_broadband_chromaticity():
     assert narrow_band_rms(Beam(f, th, ph, g)) < 1e-4
     spiky = g * (1 + 0.01 * np.isin(f, [61.0, 73.0, 88.0]))[:, None, None]
     assert narrow_band_rms(Beam(f, th, ph, spiky)) > 1e-3
+
+
+def test_lst_bins_average_spectra_before_the_fit():
+    """Binned FoM = the FoM of the bin-averaged spectra: a bump whose sign flips from one LST
+    to the next averages out in a 2 h bin, a bump that stays does not."""
+    f = np.arange(50.0, 101.0)
+    smooth = 1000 * (f / 75) ** -2.55
+    bump = 0.5 * np.exp(-0.5 * ((f - 70) / 3) ** 2)
+    flip = np.where(np.arange(24) % 2, 1.0, -1.0)
+    binned = FomSettings(n_lst=24, lst_bin_hours=2)
+    t_flip = smooth[:, None] + bump[:, None] * flip[None, :]
+    t_stay = smooth[:, None] + bump[:, None] * np.ones(24)[None, :]
+    every = fom_from_spectra(f, t_flip, FomSettings(n_lst=24))
+    assert every.lst_averaged_fom_mk > 50
+    flip_binned = fom_from_spectra(f, t_flip, binned)
+    assert flip_binned.fom.shape == (12,) and flip_binned.lst_averaged_fom_mk < 1e-6
+    assert np.allclose(flip_binned.lst_hours, np.arange(12) * 2 + 1)
+    stay = fom_from_spectra(f, t_stay, binned)
+    assert stay.lst_averaged_fom_mk == pytest.approx(fom_from_spectra(f, t_stay, FomSettings(n_lst=24)).lst_averaged_fom_mk)
+
+
+def test_lst_bins_must_tile_the_day_and_leave_old_identities_alone():
+    with pytest.raises(Exception, match="lst-bin 7 h"):
+        FomSettings(lst_bin_hours=7)
+    with pytest.raises(Exception, match="100 LSTs"):
+        FomSettings(n_lst=100, lst_bin_hours=2)
+    assert "lst_bin_hours" not in FomSettings().as_dict()  # unbinned sweep keys are unchanged
+    assert FomSettings(lst_bin_hours=2).as_dict()["lst_bin_hours"] == 2
+    assert FomSettings(lst_bin_hours=2).lsts_per_bin == 30
