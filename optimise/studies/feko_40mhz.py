@@ -1,6 +1,8 @@
-"""Our NEC beams at 40 MHz against the FEKO low-band export (optional data in ../shared)."""
+"""Our beams at 40 MHz against the FEKO low-band export (optional data in ../shared): NEC-2's
+wire grid and the surface engine's sheet, over MRO soil."""
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -9,23 +11,48 @@ from groundplane.design import Design, Soil
 from groundplane.errors import UserInputError
 from groundplane.plots import pyplot
 from groundplane.shapes import PRESETS
+from solvers.engines import make_solver
 from solvers.engines.nec import NecSettings
+from solvers.engines.surface import SurfaceSettings
 
 from . import study
-from ._common import (
-    cached,
-    solve,
-)
 
 FEKO_DIR = Path("../shared/data/beams")  # optional data beside a checkout; --feko-dir elsewhere
-FEKO_CASES = [("square-10", 1.0, 0.0, 1), ("square-10", 0.7, 0.0, 1), ("square-10", 0.5, 0.0, 1),
-              ("square-10", 0.35, 0.0, 1), ("square-10", 0.25, 0.0, 1), ("square-10", 1.0, 2.0, 4),
-              ("extended", 1.0, 0.0, 1), ("extended", 0.5, 0.0, 1)]
+SHEET_HEIGHT = 0.005  # the sheet model of results/soil_surface.md (fixed there before this comparison)
+
+
+@dataclass(frozen=True)
+class Case:
+    """One of our models of one preset, solved at 40 MHz."""
+
+    preset: str
+    engine: str
+    spacing: float
+    refine: tuple[float, int] = (0.0, 1)  # NEC only: a finer grid inside HALF_WIDTH
+
+    def settings(self):
+        if self.engine == "nec":
+            return NecSettings(spacing=self.spacing, refine_centre=self.refine)
+        return SurfaceSettings(spacing=self.spacing, plate_height=SHEET_HEIGHT)
+
+    def label(self) -> str:
+        if self.engine == "nec":
+            inner = f", {self.spacing / self.refine[1]:g} m inside {self.refine[0]:g} m" if self.refine[1] > 1 else ""
+            return f"NEC grid, {self.preset}, {self.spacing:g} m{inner}"
+        return f"surface sheet, {self.preset}, {self.spacing:g} m"
+
+
+FEKO_CASES = [Case("square-10", "nec", sp) for sp in (1.0, 0.7, 0.5, 0.35, 0.25)] + [
+    Case("square-10", "nec", 1.0, (2.0, 4)), Case("extended", "nec", 1.0), Case("extended", "nec", 0.5),
+    Case("square-10", "surface", 0.7), Case("square-10", "surface", 0.5),
+    Case("sawtooth-20-16", "surface", 0.7), Case("extended", "surface", 0.7), Case("extended", "surface", 0.5)]
+ELEVATIONS = (90, 60, 45, 30, 20, 10, 5)
 
 
 def feko_40mhz(out: Path, command: str, feko_dir: Path | None = None) -> None:
-    """Our NEC beams at 40 MHz against the FEKO low-band-over-soil export in ../shared (the
-    only full-wave beam of this antenna we have): where and by how much the wire grid differs."""
+    """Our beams at 40 MHz against the FEKO low-band-over-soil export in ../shared (the only
+    full-wave beam of this antenna we have): which of our plate models is FEKO's, and by how much
+    the others differ."""
     from solvers.io import load_beam
 
     feko_dir = Path(feko_dir or FEKO_DIR)
@@ -33,7 +60,6 @@ def feko_40mhz(out: Path, command: str, feko_dir: Path | None = None) -> None:
     if len(files) != 4:
         raise UserInputError(f"feko-40mhz: need the four FEKO quadrant files in {feko_dir}; found {len(files)}")
     feko = load_beam(files)
-    elev = [90, 60, 45, 30, 20, 10, 5]
 
     def cuts(b) -> dict:
         g = b.gain[int(np.argmin(np.abs(b.freqs_mhz - 40.0)))]
@@ -44,34 +70,37 @@ def feko_40mhz(out: Path, command: str, feko_dir: Path | None = None) -> None:
 
     ref = cuts(feko)
     rows = [("FEKO export", None, ref)]
-    for name, sp, hw, k in FEKO_CASES:
-        mesh = NecSettings(spacing=sp, refine_centre=(hw, k))
-        design = Design(PRESETS[name], Soil())
-        beam = cached(design, mesh)
-        if beam is None:  # no full-band solve cached: solve 40 MHz alone
-            beam, _ = solve(design, mesh, [40.0])
-        label = f"NEC {name}, {sp:g} m" + (f", {sp / k:g} m inside {hw:g} m" if mesh.refined else "")
-        rows.append((label, beam.meta.get("n_segments"), cuts(beam)))
+    for case in FEKO_CASES:
+        solver = make_solver(case.engine, case.settings(), workers=1, progress=True)
+        beam = solver.solve(Design(PRESETS[case.preset], Soil()), [40.0])  # cached
+        rows.append((case.label(), beam.meta.get("n_segments", beam.meta.get("n_unknowns")), cuts(beam)))
     lines = [
-        "# NEC-2 beams vs the FEKO low-band export at 40 MHz",
+        "# Our beams vs the FEKO low-band export at 40 MHz",
         "",
-        f"Command: `{command}` (cached solves; reads the FEKO quadrants in "
-        "`../shared/data/beams/`).",
+        f"Command: `{command}` (cached solves; reads the FEKO quadrants in `../shared/data/beams/`).",
         "The FEKO files do not say which ground plane they model; over soil the deployed low-band antenna "
-        "sits on the `extended` plane. Efficiency = upper-hemisphere mean gain / 2 (1 = nothing lost in the soil).",
+        "sits on the `extended` plane. Our models: NEC-2's wire grid (production settings, "
+        f"{NecSettings().plate_height * 1e3:g} mm above the soil) and the surface engine's solid sheet "
+        f"{SHEET_HEIGHT * 1e3:g} mm above it (`results/soil_surface.md`), both on MRO soil. Efficiency = "
+        "upper-hemisphere mean gain / 2 (1 = nothing lost in the soil). Differences from FEKO over every "
+        "direction 10 deg or more above the horizon.",
         "",
-        "| beam | segments | E width (deg) | H width (deg) | efficiency | "
-        + " | ".join(f"E {e} deg elev (dBi)" for e in elev) + " | " + " | ".join(f"H {e} deg" for e in elev)
-        + " | rms dB vs FEKO, elev >= 10 deg |",
-        "|" + "---|" * (6 + 2 * len(elev)),
+        "| beam | segments / unknowns | E width (deg) | H width (deg) | efficiency | "
+        + " | ".join(f"E {e} deg elev (dBi)" for e in ELEVATIONS) + " | " + " | ".join(f"H {e} deg" for e in ELEVATIONS)
+        + " | rms dB vs FEKO | largest dB vs FEKO |",
+        "|" + "---|" * (7 + 2 * len(ELEVATIONS)),
     ]
+    diffs = {}
     for label, seg, c in rows:
-        e_cut = [c["db"][90 - e, 0] for e in elev]
-        h_cut = [c["db"][90 - e, 90] for e in elev]
-        rms = float(np.sqrt(np.mean((c["db"][:81] - ref["db"][:81]) ** 2)))
+        e_cut = [c["db"][90 - e, 0] for e in ELEVATIONS]
+        h_cut = [c["db"][90 - e, 90] for e in ELEVATIONS]
+        d = c["db"][:81] - ref["db"][:81]
+        diffs[label] = (float(np.sqrt(np.mean(d ** 2))), float(np.max(np.abs(d))))
         lines.append(f"| {label} | {seg or '-'} | {c['E']:.1f} | {c['H']:.1f} | {c['eff']:.3f} | "
                      + " | ".join(f"{v:.2f}" for v in e_cut) + " | " + " | ".join(f"{v:.2f}" for v in h_cut)
-                     + f" | {rms:.2f} |")
+                     + f" | {diffs[label][0]:.2f} | {diffs[label][1]:.2f} |")
+    lines += ["", "## Reading", "", *_reading(rows, diffs)]
+    lines += ["", "![E- and H-plane cuts at 40 MHz](feko_40mhz.png)"]
     (out / "feko_40mhz.md").write_text("\n".join(lines) + "\n")
     plt = pyplot()
 
@@ -91,6 +120,24 @@ def feko_40mhz(out: Path, command: str, feko_dir: Path | None = None) -> None:
     plt.close(fig)
 
 
-@study("feko-40mhz", "NEC beams vs the FEKO low-band export at 40 MHz (needs the FEKO files; --feko-dir)")
+def _reading(rows: list, diffs: dict[str, tuple[float, float]]) -> list[str]:
+    """Which of our models is FEKO's, computed from the table."""
+    best = min((label for label, _, _ in rows[1:]), key=lambda k: diffs[k][0])
+    c = next(c for label, _, c in rows if label == best)
+    ref = rows[0][2]
+    nec = [label for label, _, _ in rows[1:] if label.startswith("NEC")]
+    closest_nec = min(nec, key=lambda k: diffs[k][0]) if nec else None
+    out = [f"- **Closest to FEKO: {best}**: rms {diffs[best][0]:.2f} dB, at most {diffs[best][1]:.2f} dB over "
+           f"the sky above 10 deg; widths {c['E']:.1f} / {c['H']:.1f} deg (FEKO {ref['E']:.1f} / {ref['H']:.1f}), "
+           f"efficiency {c['eff']:.3f} (FEKO {ref['eff']:.3f})."]
+    if closest_nec:
+        out.append(f"- NEC-2's wire grid comes no closer than {diffs[closest_nec][0]:.2f} dB rms ({closest_nec}).")
+    others = [label for label, _, _ in rows[1:] if label.startswith("surface") and label != best]
+    out += [f"- {label}: rms {diffs[label][0]:.2f} dB, at most {diffs[label][1]:.2f} dB." for label in others]
+    return out
+
+
+@study("feko-40mhz", "our beams (NEC grid, surface sheet) vs the FEKO low-band export at 40 MHz (needs the FEKO "
+       "files; --feko-dir)")
 def _run(out: Path, settings, command: str, **extra) -> None:
     feko_40mhz(out, command, **extra)
