@@ -102,21 +102,34 @@ def feko_40mhz(out: Path, command: str, feko_dir: Path | None = None) -> None:
     lines += ["", "## Reading", "", *_reading(rows, diffs)]
     lines += ["", "![E- and H-plane cuts at 40 MHz](feko_40mhz.png)"]
     (out / "feko_40mhz.md").write_text("\n".join(lines) + "\n")
-    plt = pyplot()
+    _plot(rows, out / "feko_40mhz.png")
 
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
-    for ax, phi, plane in ((axes[0], 0, "E-plane"), (axes[1], 90, "H-plane")):
-        for label, _, c in rows:
-            ax.plot(90 - np.arange(91), c["db"][:, phi], lw=2.2 if label.startswith("FEKO") else 1.0,
-                    color="k" if label.startswith("FEKO") else None, label=label)
-        ax.set_title(f"{plane}, 40 MHz")
-        ax.set_xlabel("elevation (deg)")
-        ax.set_ylim(-30, 10)
-        ax.grid(alpha=0.3)
-    axes[0].set_ylabel("gain (dBi)")
-    axes[1].legend(fontsize=7)
+
+def _plot(rows: list, path: Path) -> None:
+    """Gain cuts (top) and each model's difference from FEKO (bottom): NEC dashed, sheet solid."""
+    plt = pyplot()
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
+    elev = 90 - np.arange(91)
+    ref = rows[0][2]["db"]
+    colours = plt.get_cmap("tab20")
+    for col, (phi, plane) in enumerate(((0, "E-plane"), (90, "H-plane"))):
+        top, bottom = axes[0, col], axes[1, col]
+        for k, (label, _, c) in enumerate(rows):
+            feko = label.startswith("FEKO")
+            style = dict(lw=2.4, color="k") if feko else dict(lw=1.1, color=colours(k % 20),
+                                                               ls="--" if label.startswith("NEC") else "-")
+            top.plot(elev, c["db"][:, phi], label=label, **style)
+            if not feko:
+                bottom.plot(elev, c["db"][:, phi] - ref[:, phi], **style)
+        top.set(title=f"{plane}, 40 MHz", ylim=(-30, 10))
+        bottom.set(xlabel="elevation (deg)", ylim=(-4, 8))
+        for ax in (top, bottom):
+            ax.grid(alpha=0.3)
+    axes[0, 0].set_ylabel("gain (dBi)")
+    axes[1, 0].set_ylabel("ours - FEKO (dB)")
+    axes[0, 1].legend(fontsize=6.5, loc="lower right")
     fig.tight_layout()
-    fig.savefig(out / "feko_40mhz.png", dpi=120)
+    fig.savefig(path, dpi=120)
     plt.close(fig)
 
 
