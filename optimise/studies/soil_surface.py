@@ -100,7 +100,7 @@ def check_rows() -> list[Row]:
             Row("extended", "surface", DESIGN_MESH, DESIGN_HEIGHT, "check", panel_width=1.0),
             Row(CHECK_PRESET, "surface", 0.5, DESIGN_HEIGHT, "check"),  # ~75 min on one process
             *(Row(p, "surface", 0.5, DESIGN_HEIGHT, "check") for p in
-              ("sawtooth-10-8", "plus-15", "square-20", "sawtooth-15-12", "plus-30", "sawtooth-20-20"))]
+              ("sawtooth-10-8", "plus-15", "square-20", "sawtooth-15-12", "plus-30"))]
 
 
 def rows() -> list[Row]:
