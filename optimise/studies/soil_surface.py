@@ -312,6 +312,11 @@ def _design(table: list[dict]) -> list[str]:
                                           f"{len(DESIGN_ROWS)} rows: **{rho:+.2f}**." if rho is not None else
                                           f"{len(design)} of {len(DESIGN_ROWS)} rows solved: too few for a rank "
                                           "correlation."), ""]
+        if column == "binned_fom_mk" and fine and rho is not None:
+            finest = [{**t, column: fine[t["preset"]]["fom_binned_mk"] if t["preset"] in fine else t[column]}
+                      for t in design]
+            out += [f"At each row's finest mesh ({min(f['spacing_m'] for f in fine.values()):g} m on {len(fine)} "
+                    f"rows, {DESIGN_MESH:g} m on the rest): Spearman **{rank_correlation(finest, column):+.2f}**.", ""]
         found = conclusions(design, column)
         out += found
         if "cannot be tested" in found[0]:  # (i) on the pairs that are there
