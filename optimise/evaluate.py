@@ -118,7 +118,8 @@ class EvalSettings:
         step = f"{f[1] - f[0]:g} MHz steps" if len(f) > 1 else "one frequency"
         return (f"engine {self.engine} {json.dumps(self.solver_settings().as_dict())}; soil eps_r {self.soil.eps_r:g}, "
                 f"sigma {self.soil.sigma:g} S/m; {len(f)} frequencies {min(f):g}-{max(f):g} MHz ({step}); "
-                f"LinLog fit {self.fom.fit_band_mhz[0]:g}-{self.fom.fit_band_mhz[1]:g} MHz, {self.fom.n_lst} LSTs")
+                f"LinLog fit {self.fom.fit_band_mhz[0]:g}-{self.fom.fit_band_mhz[1]:g} MHz, {self.fom.n_lst} LSTs"
+                + (f" averaged in {self.fom.lst_bin_hours:g} h bins" if self.fom.lst_bin_hours else ""))
 
 
 def row_key(candidate: Candidate, settings: EvalSettings) -> str:
@@ -179,6 +180,7 @@ def score(candidate: Candidate, beam: Beam, settings: EvalSettings, seconds: flo
         # solve_s ~ 0 but still reports this (wall time is about this over the worker count)
         "solver_cpu_s": solver_cpu_s(beam),
         "n_segments": beam.meta.get("n_segments"),
+        "n_unknowns": beam.meta.get("n_unknowns"),  # surface engines: RWG edges
         "beam_cache_key": beam.meta.get("cache_key"),
         "source": beam.meta.get("source"),
     }

@@ -2,7 +2,6 @@
 It runs through the sweep machinery, so it is resumable and every solve is cached."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from groundplane import paper
@@ -21,6 +20,12 @@ from . import study
 from ._common import write_csv
 
 DESIGN_STUDY = list(paper.TABLE3_FOM_MK.items())  # (preset, paper FoM mK), in the table's order
+ENGINE_LABELS = {"nec": "NEC-2 (wire-grid plate)", "surface": "the surface engine (solid-sheet plate)"}
+
+
+def engine_label(settings: EvalSettings) -> str:
+    """The engine and its plate model, in words."""
+    return ENGINE_LABELS.get(settings.engine, settings.engine)
 
 
 @study("design-study", "the paper's Table 3: nine ground planes, their FoM and conclusions (i)-(iii)",
@@ -69,7 +74,8 @@ def _study_table(settings: EvalSettings, out: Path, progress: bool, report: bool
     rows = {r["name"]: r for r in run_sweep(candidates, settings, out / "design_study_runs", progress=progress,
                                             retry_failed=True)}
     if report:
-        write_report(list(rows.values()), out / "design_study_runs", title="Design study (paper Table 3) with NEC-2")
+        write_report(list(rows.values()), out / "design_study_runs",
+                     title=f"Design study (paper Table 3) with {engine_label(settings)}")
     table = []
     for name, paper_fom in DESIGN_STUDY:
         r = rows.get(name, {})
@@ -80,7 +86,7 @@ def _study_table(settings: EvalSettings, out: Path, progress: bool, report: bool
             "our_fom_mk": None if ours is None else round(ours, 1),
             "ratio": None if ours is None else round(ours / paper_fom, 3),
             "smoothed_fom_mk": smoothed if ours is not None else None,
-            "n_segments": r.get("n_segments"), "solve_s": r.get("solve_s"), "solver_cpu_s": cpu,
+            "n_segments": r.get("n_segments") or r.get("n_unknowns"), "solve_s": r.get("solve_s"), "solver_cpu_s": cpu,
             "status": r.get("status", "not run"), "error": r.get("error", ""),
         })
     return table
@@ -170,17 +176,15 @@ def _design_md(table: list[dict], settings: EvalSettings, command: str,
     sp = _mesh_label(settings)
     osp = _mesh_label(compare) if compare else None
     lines = [
-        "# Design study (Mahesh et al. 2021, Table 3) reproduced with NEC-2",
+        f"# Design study (Mahesh et al. 2021, Table 3) reproduced with {engine_label(settings)}",
         "",
         f"Command: `{command}` (resumable: rerun it to finish missing rows).",
-        f"Settings: {json.dumps(settings.identity()['mesh'])}, soil eps_r {settings.soil.eps_r}, "
-        f"sigma {settings.soil.sigma} S/m, {len(settings.freqs_mhz)} frequencies "
-        f"{min(settings.freqs_mhz):g}-{max(settings.freqs_mhz):g} MHz. NEC time is summed over frequencies "
-        "(wall time on 2 processes is about half).",
+        f"Settings: {settings.describe()}. Solver time is summed over frequencies (wall time on 2 processes "
+        "is about half).",
         "",
     ]
     head = ("| preset | metal area (m^2) | paper FoM (mK) | our FoM (mK) | ratio | FoM, G(nu) smoothed (mK) | "
-            "segments | NEC time (s) |")
+            f"{'segments' if settings.engine == 'nec' else 'unknowns'} | solver time (s) |")
     if other:
         head += f" our FoM at {osp} (mK) | change {_arrow(osp, sp)} |"
     lines += [head, "|" + "---|" * head.count(" |")]
@@ -215,17 +219,17 @@ def _design_md(table: list[dict], settings: EvalSettings, command: str,
     if any(t.get("smoothed_fom_mk") is not None for t in table):
         lines += ["", f"Same conclusions on the FoM with G(nu) smoothed (degree-{SMOOTHING_DEGREE} Chebyshev fit "
                       f"per direction, "
-                      f"removing the wire-grid model's narrow-band structure; "
+                      f"removing narrow-band structure such as the wire-grid model's; "
                       f"`results/spectral_artefacts.md`), at {sp}:", ""]
         lines += conclusions(table, "smoothed_fom_mk")
         if other and any(t.get("smoothed_fom_mk") is not None for t in other):
             lines += ["", f"and at {osp}:", ""] + conclusions(other, "smoothed_fom_mk")
-    lines += _off_rows_md(table, other, sp, osp, r0)
+    lines += _off_rows_md(table, other, sp, osp, r0, wire_grid=settings.engine == "nec")
     return "\n".join(lines) + "\n"
 
 
 def _off_rows_md(table: list[dict], other: list[dict] | None, sp: str, osp: str | None,
-                 r0: float | None) -> list[str]:
+                 r0: float | None, wire_grid: bool = True) -> list[str]:
     """The section on rows more than 25 % from the paper, each with its likely causes."""
     def change(i: int) -> float | None:
         return _mesh_change(table, other, i)
@@ -234,18 +238,21 @@ def _off_rows_md(table: list[dict], other: list[dict] | None, sp: str, osp: str 
     off = [(i, t) for i, t in enumerate(table) if t["ratio"] is not None and abs(t["ratio"] - 1) > paper.AGREEMENT]
     if off:
         lines += ["", "## Rows more than 25 % from the paper", "",
-                  "Common causes, measured elsewhere in `results/`: (a) our bare wire-grid blade (no balun, top "
+                  "Common causes, measured elsewhere in `results/`: (a) our bare blade (no balun, top "
                   "plate or shield) differs from the FEKO model even over infinite PEC (`results/validation.md`"
                   + (f": {r0:.2f}x the FEKO FoM" if r0 is not None else "") + "); (b) the plate mesh may not be "
-                  "converged at the spacing used (the last column); (c) the paper's FEKO plate is a solid sheet "
-                  "on the soil, ours a wire grid a few mm above it, which leaks more power into the soil and "
-                  "carries narrow-band structure (`results/plate_model.md`). Per row:", ""]
+                  "converged at the spacing used (the last column)"
+                  + ("; (c) the paper's FEKO plate is a solid sheet on the soil, ours a wire grid a few mm above "
+                     "it, which leaks more power into the soil and carries narrow-band structure "
+                     "(`results/plate_model.md`)" if wire_grid else "") + ". Per row:", ""]
         for i, t in off:
             c = change(i) if other else None
             mesh = (f"refining the mesh {_arrow(osp, sp)} moved it {c:+.1f} %, so (b) is "
                     f"{'a large' if abs(c) > 10 else 'a modest' if abs(c) > 3 else 'a small'} part of this row's gap"
                     if c is not None else "the size of (b) for this shape is not measured")
             plate = "" if r0 is None else (
+                f"; below the paper although our antenna model alone scores x{r0:.2f} over PEC, so the gap is "
+                "the ground plane's, not (a)" if t["ratio"] < 1 <= r0 else
                 f"; x{t['ratio'] / r0:.2f} beyond the antenna model's x{r0:.2f}, "
                 + ("so the plate model is the larger part" if t["ratio"] / r0 > 1.5 else
                    "so most of the gap is the antenna model (a)" if t["ratio"] / r0 >= 1 else
