@@ -156,7 +156,7 @@ def _default_mesh_choice(rows: list[dict]) -> list[str]:
         lines.append(f"- Accuracy: at {default.spacing:g} m the square-10 FoM is {at[default.spacing]['fom_mk']:.1f} mK, "
                      f"{bias:+.0f} % from the straight-line zero-spacing value ({f0:.0f} mK). Absolute FoMs at the "
                      "default mesh are therefore biased high by roughly that much, and not by the same amount for "
-                     "every plate: `results/design_study.md` compares two meshes row by row.")
+                     "every plate: `results/design_study_nec/design_study.md` compares two meshes row by row.")
     lines.append(f"- Choice: {default.spacing:g} m is the finest spacing at which a 600 m^2 candidate still solves "
                  "in well under an hour on this 2-core machine, so sweeps and the optimiser stay usable; "
                  "score finalists again at 0.35 m or finer (`--mesh`) before quoting absolute numbers. A "

@@ -96,7 +96,7 @@ def _findings(rows: list[dict]) -> list[str]:
                    "(`results/feko_40mhz.md`).")
     out.append("- The default was chosen by this table's convergence (the lowest height at which halving it "
                "again moves the FoM by ~5 %, and the thickest wire it allows), not by the paper's value, "
-               "which the header shows for orientation; Table 3 (`results/design_study.md`) is the check.")
+               "which the header shows for orientation; Table 3 (`results/design_study_nec/design_study.md`) is the check.")
     return out
 
 
