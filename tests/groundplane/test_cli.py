@@ -134,3 +134,15 @@ def test_freqs_fit_band_is_the_paper_fit_band_at_1_mhz():
 
     f = parse_freqs("fit-band")
     assert f[0] == 55.0 and f[-1] == 97.0 and len(f) == 43
+
+
+def test_a_reader_that_goes_away_is_not_a_traceback():
+    """`groundplane shapes | head -1`: the pipe closes before the command writes."""
+    import subprocess
+    import sys
+
+    p = subprocess.Popen([sys.executable, "-m", "groundplane", "shapes"], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE)
+    p.stdout.close()  # the reader is gone before the child starts writing
+    err = p.stderr.read().decode()
+    assert p.wait(timeout=120) == 0 and "Traceback" not in err, err
