@@ -321,6 +321,9 @@ def _design(table: list[dict]) -> list[str]:
         out.append(f"| {t['preset']} | {t['paper_fom_mk']:g} | {t['our_fom_mk']:.1f} | "
                    f"{t['our_fom_mk'] / t['paper_fom_mk']:.2f} | {t['binned_fom_mk']:.1f} | "
                    f"{t['binned_fom_mk'] / t['paper_fom_mk']:.2f} | {finer} |")
+    # the most the finer mesh moved a row's 2 h FoM: (i)'s steps smaller than this are ties
+    mesh_move = max((abs(fine[t["preset"]]["fom_binned_mk"] / t["binned_fom_mk"] - 1) for t in design
+                     if t["preset"] in fine), default=0.0)
     for column, what in (("our_fom_mk", "every 1 deg of LST"), ("binned_fom_mk", "in 2 h LST bins")):
         rho = rank_correlation(design, column)
         out += ["", f"**{what}**: " + (f"rank correlation (Spearman) with Table 3 on the raw FoM, {len(design)} of "
@@ -328,21 +331,42 @@ def _design(table: list[dict]) -> list[str]:
                                           f"{len(design)} of {len(DESIGN_ROWS)} rows solved: too few for a rank "
                                           "correlation."), ""]
         if column == "binned_fom_mk" and fine and rho is not None:
-            finest = [{**t, column: fine[t["preset"]]["fom_binned_mk"] if t["preset"] in fine else t[column]}
+            finest = [{**t, column: round(fine[t["preset"]]["fom_binned_mk"], 1) if t["preset"] in fine else t[column]}
                       for t in design]
             out += [f"At each row's finest mesh ({min(f['spacing_m'] for f in fine.values()):g} m on {len(fine)} "
-                    f"rows, {DESIGN_MESH:g} m on the rest): Spearman **{rank_correlation(finest, column):+.2f}**.", ""]
+                    f"rows, {DESIGN_MESH:g} m on the rest): Spearman **{rank_correlation(finest, column):+.2f}**; "
+                    "conclusions there (rows mixing two meshes):", ""] + conclusions(finest, column) \
+                + _closest_step(finest, column, mesh_move) \
+                + ["", f"At {DESIGN_MESH:g} m:", ""]
         found = conclusions(design, column)
         out += found
+        if column == "binned_fom_mk" and fine:
+            out += _closest_step(design, column, mesh_move)
         if "cannot be tested" in found[0]:  # (i) on the pairs that are there
             f = {t["preset"]: t[column] for t in design}
-            for small, big in (("square-10", "square-20"), ("square-20", "square-30"), ("plus-15", "plus-30"),
-                               ("sawtooth-10-8", "sawtooth-15-12"), ("sawtooth-15-12", "sawtooth-20-16")):
+            for small, big in STEPS_I:
                 if small in f and big in f:
                     out.append(f"- (i) on {small} -> {big}: {f[small]:.1f} -> {f[big]:.1f} mK (Table 3: "
                                f"{paper.TABLE3_FOM_MK[small]:g} -> {paper.TABLE3_FOM_MK[big]:g}): "
                                f"**{'holds' if f[big] < f[small] else 'does not hold'}**.")
     return out
+
+
+STEPS_I = (("square-10", "square-20"), ("square-20", "square-30"), ("plus-15", "plus-30"),
+           ("sawtooth-10-8", "sawtooth-15-12"), ("sawtooth-15-12", "sawtooth-20-16"))  # conclusion (i)
+
+
+def _closest_step(design: list[dict], column: str, mesh_move: float) -> list[str]:
+    """(i)'s closest step against ``mesh_move``, the most the finer mesh moved a row: a step
+    smaller than that is a tie at the model's accuracy."""
+    f = {t["preset"]: t[column] for t in design}
+    steps = [(abs(f[b] / f[a] - 1), a, b) for a, b in STEPS_I if f.get(a) and f.get(b)]
+    if not steps or min(steps)[0] >= mesh_move:
+        return []
+    d, a, b = min(steps)
+    return [f"- (i)'s closest step, {a} {f[a]:.1f} -> {b} {f[b]:.1f} mK ({100 * d:.1f} %), is smaller than the "
+            f"mesh moves a row (up to {100 * mesh_move:.1f} % from {DESIGN_MESH:g} m): a tie at this model's "
+            f"accuracy (Table 3: {paper.TABLE3_FOM_MK[a]:g} -> {paper.TABLE3_FOM_MK[b]:g} mK)."]
 
 
 def _checks(table: list[dict]) -> list[str]:
