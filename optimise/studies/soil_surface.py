@@ -37,7 +37,7 @@ from solvers.engines.nec import NecSettings
 from solvers.engines.surface import SurfaceSettings
 
 from . import study
-from ._common import efficiency, machine, write_csv
+from ._common import BINNED, efficiency, machine, write_csv
 
 FIT_BAND = np.arange(55.0, 98.0)  # all the FoM uses: every model here is scored on these 43 frequencies
 
@@ -123,11 +123,9 @@ def rows() -> list[Row]:
     return out + check_rows()
 
 
-BINNED = replace(FomSettings(), lst_bin_hours=paper.DATA_LST_BIN_HOURS)  # the paper's data binning (section 6)
-
-
-def binned_fom_mk(res: FomResult) -> float:
-    """The LST-averaged FoM of the same spectra averaged into the paper's 2 h LST bins."""
+def _binned_from(res: FomResult) -> float:
+    """The LST-averaged FoM of ``res``'s spectra averaged into the paper's 2 h LST bins (no new sky
+    product: the spectra are already there)."""
     return fom_from_spectra(res.freqs_mhz, res.t_ant, BINNED, res.lst_hours).lst_averaged_fom_mk
 
 
@@ -146,7 +144,7 @@ def _measure(r: Row, beam: Beam, res: FomResult) -> dict:
     ref = paper.TABLE2_FOM_MK[paper.REFERENCE_SOLVER].get(r.preset) or paper.TABLE3_FOM_MK.get(r.preset)
     i75 = int(np.argmin(np.abs(beam.freqs_mhz - 75.0)))
     fom = res.lst_averaged_fom_mk
-    binned = binned_fom_mk(res)
+    binned = _binned_from(res)
     return {"preset": r.preset, "model": r.label(), "role": r.role, "engine": r.engine, "spacing_m": r.spacing,
             "height_m": r.height, "fom_mk": fom, "paper_mk": ref, "ratio": fom / ref if ref else float("nan"),
             "fom_binned_mk": binned, "ratio_binned": binned / ref if ref else float("nan"),
