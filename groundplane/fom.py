@@ -68,6 +68,8 @@ class FomSettings:
             raise SettingsError(f"n_terms must be >= 1, got {self.n_terms}")
         if self.n_lst < 1:
             raise SettingsError(f"n_lst must be >= 1, got {self.n_lst}")
+        if self.lst_bin_hours < 0:
+            raise SettingsError(f"--lst-bin {self.lst_bin_hours:g} h must be >= 0 (0: no binning)")
         if self.lst_bin_hours:
             per_bin = self.lst_bin_hours * self.n_lst / 24.0
             if not (0 < self.lst_bin_hours <= 24 and abs(per_bin - round(per_bin)) < 1e-9

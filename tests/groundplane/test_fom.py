@@ -205,6 +205,8 @@ def test_lst_bins_average_spectra_before_the_fit():
 def test_lst_bins_must_tile_the_day_and_leave_old_identities_alone():
     with pytest.raises(Exception, match="lst-bin 7 h"):
         FomSettings(lst_bin_hours=7)
+    with pytest.raises(Exception, match="must be >= 0"):
+        FomSettings(lst_bin_hours=-2)
     with pytest.raises(Exception, match="100 LSTs"):
         FomSettings(n_lst=100, lst_bin_hours=2)
     assert "lst_bin_hours" not in FomSettings().as_dict()  # unbinned sweep keys are unchanged
