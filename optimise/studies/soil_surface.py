@@ -278,7 +278,9 @@ def _binning(table: list[dict]) -> list[str]:
         return []
     sq, ext = base["square-10"], base["extended"]
     ref = paper.TABLE2_FOM_MK[paper.REFERENCE_SOLVER]
-    return [f"- **LST binning** (declared; picked on Table 2 only, Table 3 is the check below): the paper's section 3 "
+    return [f"- **LST binning** (declared; the width is the paper's own, not fitted; Table 2 is the pick, "
+            "Table 3 below the check, though not a blind one: the first look at binning computed both, and "
+            "1 h bins rank Table 3 as well): the paper's section 3 "
             "computes spectra every 1 deg of LST and does not say how they are binned for the FoM; its section 6 "
             f"compares the same simulations with data \"averaged into the same two-hour LST blocks\", and Table 2's "
             f"soil FoMs are the ones it sets against the data's. On this model, every 1 deg: `square-10` "
