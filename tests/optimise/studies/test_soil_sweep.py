@@ -17,7 +17,13 @@ def test_soil_sweep_scores_both_binnings_and_reads_each_planes_spread(tmp_path, 
         return [{"status": "ok", "lst_averaged_fom_mk": fom}]
 
     monkeypatch.setattr(study, "run_sweep", fake_run_sweep)
-    rows = study.soil_sweep(EvalSettings(), tmp_path, "cmd", progress=False)
+    from dataclasses import replace
+
+    from groundplane.fom import FomSettings
+
+    # a user's --lst-bin does not turn the every-LST column into a second binned one
+    rows = study.soil_sweep(EvalSettings(fom=replace(FomSettings(), lst_bin_hours=2.0)), tmp_path, "cmd",
+                            progress=False)
     planes = [r["plane"] for r in rows]
     assert planes.count("square-10") == len(paper.SOIL_SWEEP_EPS_R) + len(paper.SOIL_SWEEP_SIGMA)
     ext = {(r["eps_r"], r["sigma"]) for r in rows if r["plane"] == "extended"}
