@@ -8,7 +8,7 @@ RMS of the residuals over the fit band, per LST and averaged over LST.
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -72,7 +72,7 @@ class FomSettings:
             raise SettingsError(f"--lst-bin {self.lst_bin_hours:g} h must be >= 0 (0: no binning)")
         if self.lst_bin_hours:
             per_bin = self.lst_bin_hours * self.n_lst / 24.0
-            if not (0 < self.lst_bin_hours <= 24 and abs(per_bin - round(per_bin)) < 1e-9
+            if not (self.lst_bin_hours <= 24 and abs(per_bin - round(per_bin)) < 1e-9
                     and self.n_lst % round(per_bin) == 0):
                 raise SettingsError(f"--lst-bin {self.lst_bin_hours:g} h must hold a whole number of the "
                                     f"{self.n_lst} LSTs (every {24 / self.n_lst:g} h) and divide 24 h evenly")
@@ -106,6 +106,14 @@ class FomResult:
     @property
     def lst_averaged_fom_mk(self) -> float:
         return float(np.mean(self.fom) * 1e3)
+
+    def in_lst_bins(self, hours: float) -> "FomResult":
+        """The same spectra averaged into LST bins ``hours`` wide (no new sky product): one
+        beam scored both every LST and binned."""
+        if self.settings.lst_bin_hours:
+            raise SettingsError(f"this FoM is already in {self.settings.lst_bin_hours:g} h LST bins")
+        return fom_from_spectra(self.freqs_mhz, self.t_ant, replace(self.settings, lst_bin_hours=hours),
+                                self.lst_hours)
 
     def as_json(self) -> dict[str, Any]:
         return {

@@ -69,11 +69,11 @@ def feko_40mhz(out: Path, command: str, feko_dir: Path | None = None) -> None:
                 "eff": float((g[:91] * w).sum() / w.sum() / 2)}
 
     ref = cuts(feko)
-    rows = [("FEKO export", None, ref)]
+    rows = [("FEKO export", None, None, ref)]  # (label, engine, segments / unknowns, cuts)
     for case in FEKO_CASES:
         solver = make_solver(case.engine, case.settings(), workers=1, progress=True)
         beam = solver.solve(Design(PRESETS[case.preset], Soil()), [40.0])  # cached
-        rows.append((case.label(), beam.meta.get("n_segments", beam.meta.get("n_unknowns")), cuts(beam)))
+        rows.append((case.label(), case.engine, beam.meta.get("n_segments", beam.meta.get("n_unknowns")), cuts(beam)))
     lines = [
         "# Our beams vs the FEKO low-band export at 40 MHz",
         "",
@@ -91,7 +91,7 @@ def feko_40mhz(out: Path, command: str, feko_dir: Path | None = None) -> None:
         "|" + "---|" * (7 + 2 * len(ELEVATIONS)),
     ]
     diffs = {}
-    for label, seg, c in rows:
+    for label, _, seg, c in rows:
         e_cut = [c["db"][90 - e, 0] for e in ELEVATIONS]
         h_cut = [c["db"][90 - e, 90] for e in ELEVATIONS]
         d = c["db"][:81] - ref["db"][:81]
@@ -110,14 +110,14 @@ def _plot(rows: list, path: Path) -> None:
     plt = pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
     elev = 90 - np.arange(91)
-    ref = rows[0][2]["db"]
+    ref = rows[0][3]["db"]
     colours = plt.get_cmap("tab20")
     for col, (phi, plane) in enumerate(((0, "E-plane"), (90, "H-plane"))):
         top, bottom = axes[0, col], axes[1, col]
-        for k, (label, _, c) in enumerate(rows):
-            feko = label.startswith("FEKO")
+        for k, (label, engine, _, c) in enumerate(rows):
+            feko = engine is None
             style = dict(lw=2.4, color="k") if feko else dict(lw=1.1, color=colours(k % 20),
-                                                               ls="--" if label.startswith("NEC") else "-")
+                                                               ls="--" if engine == "nec" else "-")
             top.plot(elev, c["db"][:, phi], label=label, **style)
             if not feko:
                 bottom.plot(elev, c["db"][:, phi] - ref[:, phi], **style)
@@ -135,17 +135,17 @@ def _plot(rows: list, path: Path) -> None:
 
 def _reading(rows: list, diffs: dict[str, tuple[float, float]]) -> list[str]:
     """Which of our models is FEKO's, computed from the table."""
-    best = min((label for label, _, _ in rows[1:]), key=lambda k: diffs[k][0])
-    c = next(c for label, _, c in rows if label == best)
-    ref = rows[0][2]
-    nec = [label for label, _, _ in rows[1:] if label.startswith("NEC")]
+    best = min((label for label, *_ in rows[1:]), key=lambda k: diffs[k][0])
+    c = next(c for label, _, _, c in rows if label == best)
+    ref = rows[0][3]
+    nec = [label for label, engine, *_ in rows[1:] if engine == "nec"]
     closest_nec = min(nec, key=lambda k: diffs[k][0]) if nec else None
     out = [f"- **Closest to FEKO: {best}**: rms {diffs[best][0]:.2f} dB, at most {diffs[best][1]:.2f} dB over "
            f"the sky above 10 deg; widths {c['E']:.1f} / {c['H']:.1f} deg (FEKO {ref['E']:.1f} / {ref['H']:.1f}), "
            f"efficiency {c['eff']:.3f} (FEKO {ref['eff']:.3f})."]
     if closest_nec:
         out.append(f"- NEC-2's wire grid comes no closer than {diffs[closest_nec][0]:.2f} dB rms ({closest_nec}).")
-    others = [label for label, _, _ in rows[1:] if label.startswith("surface") and label != best]
+    others = [label for label, engine, *_ in rows[1:] if engine == "surface" and label != best]
     out += [f"- {label}: rms {diffs[label][0]:.2f} dB, at most {diffs[label][1]:.2f} dB." for label in others]
     return out
 

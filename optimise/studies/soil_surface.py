@@ -28,7 +28,6 @@ from groundplane.fom import (
     FomSettings,
     figure_of_merit,
     fit_band_mask,
-    fom_from_spectra,
     narrow_band_rms,
 )
 from groundplane.shapes import PRESETS
@@ -37,7 +36,7 @@ from solvers.engines.nec import NecSettings
 from solvers.engines.surface import SurfaceSettings
 
 from . import study
-from ._common import BINNED, efficiency, machine, write_csv
+from ._common import efficiency, machine, write_csv
 
 FIT_BAND = np.arange(55.0, 98.0)  # all the FoM uses: every model here is scored on these 43 frequencies
 
@@ -123,12 +122,6 @@ def rows() -> list[Row]:
     return out + check_rows()
 
 
-def _binned_from(res: FomResult) -> float:
-    """The LST-averaged FoM of ``res``'s spectra averaged into the paper's 2 h LST bins (no new sky
-    product: the spectra are already there)."""
-    return fom_from_spectra(res.freqs_mhz, res.t_ant, BINNED, res.lst_hours).lst_averaged_fom_mk
-
-
 LST_LAG = 8  # LST samples (deg): 32 min, a quarter of the paper's 2 h bin
 
 
@@ -144,13 +137,14 @@ def _measure(r: Row, beam: Beam, res: FomResult) -> dict:
     ref = paper.TABLE2_FOM_MK[paper.REFERENCE_SOLVER].get(r.preset) or paper.TABLE3_FOM_MK.get(r.preset)
     i75 = int(np.argmin(np.abs(beam.freqs_mhz - 75.0)))
     fom = res.lst_averaged_fom_mk
-    binned = _binned_from(res)
+    binned = res.in_lst_bins(paper.DATA_LST_BIN_HOURS).lst_averaged_fom_mk
     return {"preset": r.preset, "model": r.label(), "role": r.role, "engine": r.engine, "spacing_m": r.spacing,
             "height_m": r.height, "fom_mk": fom, "paper_mk": ref, "ratio": fom / ref if ref else float("nan"),
             "fom_binned_mk": binned, "ratio_binned": binned / ref if ref else float("nan"),
             "residual_lst_corr": lst_correlation(res.residuals, LST_LAG),
             # the paper's second number for this plane (an independent check of the binning)
-            "fom_binned_absorption_mk": figure_of_merit(beam, replace(BINNED, absorption=Absorption()))
+            "fom_binned_absorption_mk": figure_of_merit(beam, FomSettings(lst_bin_hours=paper.DATA_LST_BIN_HOURS,
+                                                                   absorption=Absorption()))
             .lst_averaged_fom_mk if r.role == "extended" else None,
             "fom_lst_min_mk": float(np.min(res.fom)) * 1e3, "fom_lst_max_mk": float(np.max(res.fom)) * 1e3,
             "fom_peak_lst_h": float(np.asarray(res.lst_hours)[int(np.argmax(res.fom))]),

@@ -21,7 +21,8 @@ from ._common import write_csv
 EPS_R = paper.SOIL_SWEEP_EPS_R
 SIGMA = paper.SOIL_SWEEP_SIGMA
 PLANES = ("square-10", "extended")
-# the extended plane (7300 unknowns on the sheet model, ~4x square-10's cost per frequency)
+# the extended plane (7300 unknowns on the sheet model, ~5x square-10's cost per frequency:
+# 42 vs 9 s, results/soil_surface.md)
 # at MRO and the ends of the conductivity range only: the paper finds the beam "not very
 # sensitive to the relative permittivity", and conductivity moves square-10 most
 EXTENDED_SOILS = ((paper.MRO_EPS_R, paper.MRO_SIGMA_S_PER_M), (paper.MRO_EPS_R, SIGMA[0]), (paper.MRO_EPS_R, SIGMA[-1]))

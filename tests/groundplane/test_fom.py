@@ -212,3 +212,14 @@ def test_lst_bins_must_tile_the_day_and_leave_old_identities_alone():
     assert "lst_bin_hours" not in FomSettings().as_dict()  # unbinned sweep keys are unchanged
     assert FomSettings(lst_bin_hours=2).as_dict()["lst_bin_hours"] == 2
     assert FomSettings(lst_bin_hours=2).lsts_per_bin == 30
+
+
+def test_an_unbinned_result_rebins_without_a_new_sky_product():
+    f = np.arange(50.0, 101.0)
+    t = 1000 * (f / 75)[:, None] ** -2.55 + 0.5 * np.sin(np.arange(24))[None, :] * np.exp(-0.5 * ((f - 70) / 3) ** 2)[:, None]
+    every = fom_from_spectra(f, t, FomSettings(n_lst=24))
+    direct = fom_from_spectra(f, t, FomSettings(n_lst=24, lst_bin_hours=4))
+    rebinned = every.in_lst_bins(4)
+    assert np.allclose(rebinned.fom, direct.fom) and np.allclose(rebinned.lst_hours, direct.lst_hours)
+    with pytest.raises(Exception, match="already in 4 h"):
+        rebinned.in_lst_bins(2)
