@@ -23,6 +23,7 @@ import numpy as np
 from groundplane.errors import ShapeError, UserInputError
 from groundplane.files import append_jsonl, read_jsonl
 from groundplane.shapes import SHAPES, GroundPlane
+from solvers.engines import ENGINES
 
 from .evaluate import Candidate, EvalSettings, evaluate
 
@@ -143,14 +144,15 @@ def smallest_feature(plane: GroundPlane) -> tuple[float, float]:
     return float(edges.min()), float(spans.min()) if spans.size else math.inf
 
 
-def too_fine_for(plane: GroundPlane, spacing: float) -> str | None:
-    """Why the wire grid at ``spacing`` cannot represent ``plane`` (None if it can): metal
-    narrower than two cells has at most one grid line inside it, and an outline edge under
-    half a cell is at the node-merging tolerance (0.3 cells), where the mesh moves it."""
+def too_fine_for(plane: GroundPlane, spacing: float, keeps_outline: bool = False) -> str | None:
+    """Why a mesh at ``spacing`` cannot represent ``plane`` (None if it can): metal narrower
+    than two cells has at most one grid line (or triangle) across it; on a wire grid
+    (``keeps_outline`` False) an outline edge under half a cell is also at the node-merging
+    tolerance (0.3 cells), where the mesh moves it. A conforming triangulation keeps it."""
     edge, span = smallest_feature(plane)
     if span < 2 * spacing:
         return f"a {span:.2f} m wide feature is under two mesh cells ({2 * spacing:g} m)"
-    if edge < 0.5 * spacing:
+    if not keeps_outline and edge < 0.5 * spacing:
         return f"a {edge:.2f} m outline edge is under half a mesh cell ({0.5 * spacing:g} m)"
     return None
 
@@ -276,7 +278,8 @@ class _Evaluator:
         except ShapeError as exc:
             return {"status": "invalid", "fom_mk": None, "error": str(exc)}
         spacing = self.settings.spacing
-        if spacing and (why := too_fine_for(plane, spacing)):  # the search would exploit the model
+        keeps = getattr(ENGINES[self.settings.engine], "mesh_keeps_outline", False)
+        if spacing and (why := too_fine_for(plane, spacing, keeps)):  # the search would exploit the model
             return {"status": "invalid", "fom_mk": None, "error": why}
         if self.progress:
             print(f"  eval {len(self.hist.rows) + 1:3d}: solving {plane.describe()} ...", file=sys.stderr, flush=True)

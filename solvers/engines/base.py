@@ -203,6 +203,9 @@ class FrequencySolver:
     settings_class: ClassVar[type] = object
     model_version: ClassVar[int] = 1
     grounds: ClassVar[tuple[str, ...]] = ("soil", "pec")  # what the engine can put under a design
+    # True when the plate's mesh keeps every outline vertex (a conforming triangulation), so an
+    # outline edge shorter than a cell is meshed as it is; a wire grid moves such edges.
+    mesh_keeps_outline: ClassVar[bool] = False
 
     def __init__(self, settings: Any = None, *, workers: int = 2, progress: bool = False,
                  use_cache: bool = True) -> None:

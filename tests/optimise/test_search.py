@@ -113,3 +113,23 @@ def test_small_features_are_refused_and_the_answer_is_confirmed_at_a_finer_mesh(
     optimise("sawtooth", 300.0, coarse, tmp_path, budget=40, integer_values=(3,), evaluate_fn=ev, progress=False,
              confirm_mesh=0.7 * spacing, confirm_top=3)
     assert len(calls) == n
+
+
+def test_a_short_outline_edge_is_refused_on_the_wire_grid_only():
+    """The 600 m^2 search's first sawtooth has a 0.43 m corner edge: the NEC grid (nodes merge
+    within 0.3 cells) cannot place it at a 1 m mesh, the surface engine's conforming
+    triangulation keeps it; a tooth under two cells wide is refused by both."""
+    from groundplane.shapes import Sawtooth
+    from optimise.search import smallest_feature, too_fine_for
+    from solvers.engines import ENGINES
+
+    plane = Sawtooth(side=17.320508075688775, teeth_per_side=4, tooth_base=3.4641016151377553,
+                     tooth_height=6.495190528383288)
+    edge, span = smallest_feature(plane)
+    assert edge == pytest.approx(0.433, abs=1e-3) and span == pytest.approx(3.464, abs=1e-3)
+    nec, surface = ENGINES["nec"].mesh_keeps_outline, ENGINES["surface"].mesh_keeps_outline
+    assert not nec and surface
+    assert "outline edge" in too_fine_for(plane, 1.0, nec)
+    assert too_fine_for(plane, 1.0, surface) is None
+    assert "under two mesh cells" in too_fine_for(plane, 1.8, surface)
+    assert "under two mesh cells" in too_fine_for(plane, 1.8, nec)
