@@ -222,8 +222,9 @@ def _reading(rows: list[dict]) -> list[str]:
         f"- **Blade over PEC: the engines agree.** NEC's wire-grid blade scores {blade_nec['fom_mk']:.1f} mK against "
         f"{blade_ref['fom_mk']:.1f} mK for solid panels (FoM {blade_nec['fom_vs_ref']}, zenith gain at most "
         f"{blade_nec['zenith_vs_ref_max']}); both give Table 1's beam widths. The gap to FEKO's 61.8 mK is not "
-        "a wire-grid artefact: solid panels score the same; what FEKO's model has and ours lacks (balun, top "
-        "plate, shield) remains the candidate.",
+        "a wire-grid artefact: solid panels score the same. Nor is it the parts FEKO's model has and ours lacks "
+        "(balun, top plate, shield): on both engines the feed model moves the FoM to FEKO's, the parts barely "
+        "(`results/blade_over_pec.md`).",
         f"- **A finite plate in free space: NEC's production plate is a leaky reflector.** With the production "
         f"model ({free_prod['model'].split(', ', 1)[1].replace(' (production)', '')}) NEC's zenith gain is "
         f"{free_prod['zenith_vs_ref_max']} off the solid plate and the FoM {free_prod['fom_vs_ref']}; with wires "
