@@ -157,12 +157,42 @@ def too_fine_for(plane: GroundPlane, spacing: float, keeps_outline: bool = False
     return None
 
 
+def same_search(out: Path, ident: dict[str, Any]) -> None:
+    """Refuse to resume into ``out`` a search with other settings: its history's FoMs, keyed
+    by design only, would be replayed as if solved with these (search.json records them; a
+    directory from before search.json existed adopts the settings it is resumed with)."""
+    path = out / "search.json"
+    ident = json.loads(json.dumps(ident))  # tuples as lists, as they read back
+    if path.exists():
+        try:
+            old = json.loads(path.read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise UserInputError(f"{path}: unreadable ({exc}); remove it only if {out} holds this search") from None
+        if old != ident:
+            diff = _differences(old, ident)
+            raise UserInputError(f"{out} holds a search with other settings ({'; '.join(diff)}): its FoMs would be "
+                                 "replayed as if solved with these. Use another -o, or the same settings to resume.")
+        return
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(ident, indent=1) + "\n")
+    tmp.replace(path)
+
+
+def _differences(old: Any, new: Any, where: str = "") -> list[str]:
+    """Where two JSON values differ, as 'key: old -> new' (dicts compared key by key)."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        return [d for k in sorted(set(old) | set(new))
+                for d in _differences(old.get(k), new.get(k), f"{where}.{k}" if where else k)]
+    return [] if old == new else [f"{where}: {json.dumps(old)[:60]} -> {json.dumps(new)[:60]}"]
+
+
 def _confirm(ev: "_Evaluator", settings: EvalSettings, out: Path, spacing: float, top: int,
              progress: bool) -> list[dict[str, Any]]:
     """Re-solve the ``top`` best distinct designs of the search at ``spacing`` (resumable:
     confirm.jsonl), so the answer is one that holds at a finer mesh than the search used."""
     fine = settings.with_spacing(spacing)
-    done = {History.key(r["integer"], r["x"]): r for r in read_jsonl(out / "confirm.jsonl")}
+    done = {History.key(r["integer"], r["x"]): r for r in read_jsonl(out / "confirm.jsonl")
+            if math.isclose(r.get("confirmed_at", math.nan), spacing)}  # a rerun at another mesh re-solves
     # history rows are distinct designs already (a replayed x is never added twice)
     picked = sorted((r for r in ev.hist.rows if r["status"] == "ok" and r["area_m2"] <= ev.max_area * (1 + 1e-9)),
                     key=lambda r: r["fom_mk"])[:top]
@@ -216,6 +246,7 @@ def optimise(
     ints: tuple = tuple(integer_values) if integer_values else (fam.integer_values or (None,))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    same_search(out, {"shape": shape, "max_area": max_area, "settings": settings.identity()})
     ev = _Evaluator(fam, shape, max_area, settings, History(out / "history.jsonl"),
                     evaluate_fn or (lambda c, s: evaluate(c, s, progress=progress)), progress)
     for n in ints:

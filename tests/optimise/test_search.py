@@ -133,3 +133,33 @@ def test_a_short_outline_edge_is_refused_on_the_wire_grid_only():
     assert too_fine_for(plane, 1.0, surface) is None
     assert "under two mesh cells" in too_fine_for(plane, 1.8, surface)
     assert "under two mesh cells" in too_fine_for(plane, 1.8, nec)
+
+
+def test_a_search_resumed_with_other_settings_is_refused_and_a_new_confirm_mesh_resolves(tmp_path):
+    """history.jsonl is keyed by design only: resuming it with another mesh or FoM would
+    replay its FoMs as if solved with the new settings, so the directory refuses, naming the
+    difference; confirm rows at one mesh are not reused for another."""
+    from dataclasses import replace
+
+    from groundplane.errors import UserInputError
+
+    base = EvalSettings()
+    sp = base.solver_settings().spacing
+    calls = []
+
+    def ev(candidate, settings):
+        calls.append(settings.solver_settings().spacing)
+        return {"status": "ok", "lst_averaged_fom_mk": 100.0 + candidate.plane.tooth_base, "name": candidate.name}
+
+    kw = dict(budget=6, integer_values=(3,), evaluate_fn=ev, progress=False, confirm_top=1)
+    optimise("sawtooth", 300.0, base, tmp_path, confirm_mesh=0.7 * sp, **kw)
+    n = len(calls)
+    with pytest.raises(UserInputError, match=r"other settings \(settings\.mesh\.spacing: 0\.5 -> 1\.0"):
+        optimise("sawtooth", 300.0, base.with_spacing(1.0), tmp_path, confirm_mesh=0.7, **kw)
+    with pytest.raises(UserInputError, match="lst_bin"):
+        optimise("sawtooth", 300.0, replace(base, fom=replace(base.fom, lst_bin_hours=2.0)), tmp_path, **kw)
+    assert len(calls) == n  # nothing solved by a refused run
+    res = optimise("sawtooth", 300.0, base, tmp_path, confirm_mesh=0.7 * sp, **kw)  # same settings: all replayed
+    assert len(calls) == n and res.best["confirmed_at"] == pytest.approx(0.7 * sp)
+    res = optimise("sawtooth", 300.0, base, tmp_path, confirm_mesh=0.5 * sp, **kw)  # a new confirm mesh re-solves
+    assert calls[n:] == [pytest.approx(0.5 * sp)] and res.best["confirmed_at"] == pytest.approx(0.5 * sp)
