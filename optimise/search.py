@@ -21,7 +21,7 @@ from typing import Any, Callable
 import numpy as np
 
 from groundplane.errors import ShapeError, UserInputError
-from groundplane.files import append_jsonl, read_jsonl
+from groundplane.files import append_jsonl, atomic_path, read_jsonl
 from groundplane.shapes import SHAPES, GroundPlane
 from solvers.engines import ENGINES
 
@@ -173,9 +173,8 @@ def same_search(out: Path, ident: dict[str, Any]) -> None:
             raise UserInputError(f"{out} holds a search with other settings ({'; '.join(diff)}): its FoMs would be "
                                  "replayed as if solved with these. Use another -o, or the same settings to resume.")
         return
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(ident, indent=1) + "\n")
-    tmp.replace(path)
+    with atomic_path(path, suffix=".tmp.json") as tmp:
+        tmp.write_text(json.dumps(ident, indent=1) + "\n")
 
 
 def _differences(old: Any, new: Any, where: str = "") -> list[str]:
