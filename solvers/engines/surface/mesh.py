@@ -40,6 +40,8 @@ class SurfaceSettings:
     edge_grading: float = option(0.5, "surface engine: 0 = uniform panel cells, 1 = cosine spacing, denser at the "
                                  "panel edges")
     near_factor: float = 2.5
+    method: str = option("fast", "surface engine: 'fast' (precorrected FFT + GMRES, O(N log N) per iteration) or "
+                         "'dense' (the full matrix and its LU: the reference)", choices=("fast", "dense"))
 
     def __post_init__(self) -> None:
         if not (self.spacing > 0 and math.isfinite(self.spacing)):
@@ -55,6 +57,8 @@ class SurfaceSettings:
             raise SettingsError(f"feed_width must be > 0 m, got {self.feed_width}")
         if self.near_factor < 1.5:
             raise SettingsError("near_factor must be >= 1.5")
+        if self.method not in ("fast", "dense"):
+            raise SettingsError(f"method must be 'fast' or 'dense', got {self.method!r}")
 
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)

@@ -313,14 +313,15 @@ class Problem:
             return 0.0, charge_image(soil_permittivity(*self.soil, freq_hz))
         return None
 
-    def reflected_kernels(self, freq_hz: float) -> ReflectedKernels | None:
-        """The soil's smooth reflected kernels for this mesh's height sums, or None."""
+    def reflected_kernels(self, freq_hz: float, reach: float = 0.0) -> ReflectedKernels | None:
+        """The soil's smooth reflected kernels for this mesh's height sums, or None; tabulated
+        to the mesh's diagonal plus ``reach`` (m; the fast solve's grid extends past the metal)."""
         if self.ground != "soil":
             return None
         levels = np.unique(np.round(self.mesh.nodes[:, 2], 9))
         zetas = (levels[:, None] + levels[None, :]).ravel()
         xy = self.mesh.nodes[:, :2]
-        rho_max = float(np.hypot(*(xy.max(axis=0) - xy.min(axis=0)))) + 0.1
+        rho_max = float(np.hypot(*(xy.max(axis=0) - xy.min(axis=0)))) + 0.1 + reach
         return ReflectedKernels.build(freq_hz, *self.soil, zetas, rho_max)
 
 
@@ -363,6 +364,15 @@ def _near_moments(mesh: TriMesh, pairs: np.ndarray, k: float, image: bool) -> np
 
 def _near_moments_rule(mesh: TriMesh, pairs: np.ndarray, k: float, image: bool,
                        outer: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    sing, r, wo, ws, rho, ps = near_geometry(mesh, pairs, image, outer)
+    return sing + smooth_moments(_smooth(r, k) * ws[:, None, :], wo, rho, ps)
+
+
+def near_geometry(mesh: TriMesh, pairs: np.ndarray, image: bool, outer: tuple[np.ndarray, np.ndarray]) -> tuple:
+    """The frequency-independent part of near pairs' accurate moments: the six moments [6, n]
+    of the closed-form 1/R integrals, and the point geometry the smooth part is integrated
+    on (distances r [n, Qo, 7], outer weights [n, Qo], inner weights [n, 7], outer and inner
+    in-plane points [n, Qo, 2], [n, 7, 2])."""
     o, s = pairs[:, 0], pairs[:, 1]
     bary, w = outer
     po = np.einsum("qk,tkd->tqd", bary, mesh.nodes[mesh.tris[o]])
@@ -374,17 +384,24 @@ def _near_moments_rule(mesh: TriMesh, pairs: np.ndarray, k: float, image: bool,
     verts = mesh.nodes[mesh.tris[s]][..., :2]  # [n, 3, 2]
     rho = po[..., :2]
     d = po[..., 2] - zs[:, None]
-    i_sing, j_sing = potential_integrals(rho, d, verts[:, None])  # [n, 7], [n, 7, 2]
+    i_sing, j_sing = potential_integrals(rho, d, verts[:, None])  # [n, Qo], [n, Qo, 2]
     diff = po[:, :, None, :2] - ps[:, None, :, :2]
-    r = np.sqrt(np.einsum("...k,...k->...", diff, diff) + d[..., None] ** 2)  # [n, 7o, 7s]
-    gs = _smooth(r, k) * ws[:, None, :]
-    i0 = i_sing + gs.sum(axis=2)
-    i1 = rho * i_sing[..., None] + j_sing + np.einsum("nij,njk->nik", gs, ps[..., :2])  # int rho' G
-    s0 = np.einsum("ni,ni->n", wo, i0)
-    so = np.einsum("ni,nik->kn", wo * i0, rho)
-    ss = np.einsum("ni,nik->kn", wo, i1)
-    srr = np.einsum("ni,nik,nik->n", wo, rho, i1)
-    return np.stack([s0, so[0], so[1], srr, ss[0], ss[1]])
+    r = np.sqrt(np.einsum("...k,...k->...", diff, diff) + d[..., None] ** 2)  # [n, Qo, 7]
+    i1 = rho * i_sing[..., None] + j_sing
+    sing = np.stack([np.einsum("ni,ni->n", wo, i_sing), *np.einsum("ni,nik->kn", wo * i_sing, rho),
+                     np.einsum("ni,nik,nik->n", wo, rho, i1), *np.einsum("ni,nik->kn", wo, i1)])
+    return sing, r, wo, ws, rho, ps[..., :2]
+
+
+def smooth_moments(gs: np.ndarray, wo: np.ndarray, rho: np.ndarray, ps: np.ndarray) -> np.ndarray:
+    """The six moments [6, n] of a smooth kernel given at the near pairs' points, times the
+    inner weights (``gs`` [n, Qo, 7]), by the outer rule."""
+    i0 = gs.sum(axis=2)
+    i1 = gs @ ps  # int rho' G, [n, Qo, 2]
+    wi0 = wo * i0
+    wi1 = wo[..., None] * i1
+    return np.stack([wi0.sum(axis=1), *(wi0[..., None] * rho).sum(axis=1).T, (rho * wi1).sum(axis=(1, 2)),
+                     *wi1.sum(axis=1).T])
 
 
 def _far_rule_pairs(mesh: TriMesh, pairs: np.ndarray, k: float, image: bool) -> np.ndarray:
@@ -610,6 +627,7 @@ def gain_pattern(prob: Problem, sol: Solution, theta_deg: np.ndarray, phi_deg: n
     jw = (alpha[:, None, None] * pts[..., :2] + beta[:, None, :]) * w[..., None]  # [T, Q, 2]
     jw = jw.reshape(-1, 2)
     p = pts.reshape(-1, 3)
+    levels, level = np.unique(np.round(p[:, 2], 9), return_inverse=True)  # flat metal: a few heights
     th, ph = np.meshgrid(np.radians(theta_deg), np.radians(phi_deg), indexing="ij")
     th, ph = th.ravel(), ph.ravel()
     direct = np.zeros((th.size, 2), dtype=complex)
@@ -617,11 +635,13 @@ def gain_pattern(prob: Problem, sol: Solution, theta_deg: np.ndarray, phi_deg: n
     for s in range(0, th.size, chunk):
         t_, f_ = th[s:s + chunk], ph[s:s + chunk]
         sx, sy, cz = np.sin(t_) * np.cos(f_), np.sin(t_) * np.sin(f_), np.cos(t_)
-        horiz = np.exp(1j * k * (np.outer(p[:, 0], sx) + np.outer(p[:, 1], sy)))
-        kz = k * np.outer(p[:, 2], cz)
-        direct[s:s + chunk] = (horiz * np.exp(1j * kz)).T @ jw
-        if prob.ground != "free":
-            mirrored[s:s + chunk] = (horiz * np.exp(-1j * kz)).T @ jw
+        for lev, z in enumerate(levels):  # exp(jk s.r) = exp(jk (x sx + y sy)) exp(jk z cz)
+            on = level == lev
+            horiz = np.exp(1j * k * (np.outer(p[on, 0], sx) + np.outer(p[on, 1], sy)))
+            moment = horiz.T @ jw[on]
+            direct[s:s + chunk] += np.exp(1j * k * z * cz)[:, None] * moment
+            if prob.ground != "free":
+                mirrored[s:s + chunk] += np.exp(-1j * k * z * cz)[:, None] * moment
     # theta and phi parts of the horizontal current moment; the image reflects them by R_v, R_h
     if prob.ground == "soil":
         r_v, r_h = fresnel(np.cos(th), soil_permittivity(*prob.soil, sol.freq_hz))

@@ -45,10 +45,18 @@ def solve_frequency(payload: tuple, freq_mhz: float) -> tuple[np.ndarray, dict[s
     """Worker job: the gain pattern [91, n_phi] at one frequency, the input impedance and
     the energy balance (radiated / input power: 1 for a lossless model over PEC or in free
     space, the radiation efficiency over soil)."""
-    mesh, ground, n_phi, near_factor, soil = payload
-    prob = Problem(mesh, rwg_basis(mesh), ground, near_factor, soil)
-    symmetry = MirrorSymmetry.of(mesh, prob.rwg) if n_phi == 91 else None  # exact, ~4x faster
-    sol = solve(prob, freq_mhz * 1e6, symmetry)
+    mesh, ground, n_phi, near_factor, soil, method = payload
+    extras: dict[str, float] = {}
+    if method == "fast":  # the design's frequency-independent parts are kept across this worker's frequencies
+        from .pfft import problem_of, solve_fast
+
+        prob = problem_of(mesh, ground, near_factor, soil)
+        sol, stats = solve_fast(prob, freq_mhz * 1e6, symmetric=n_phi == 91)
+        extras = {"gmres_iterations": float(stats.iterations), "gmres_residual": stats.residual}
+    else:
+        prob = Problem(mesh, rwg_basis(mesh), ground, near_factor, soil)
+        symmetry = MirrorSymmetry.of(mesh, prob.rwg) if n_phi == 91 else None  # exact, ~4x faster
+        sol = solve(prob, freq_mhz * 1e6, symmetry)
     step = FAR_FIELD_STEP
     phis = np.arange(0.0, 91.0 if n_phi == 91 else 360.0, step)
     if ground != "free":
@@ -63,7 +71,7 @@ def solve_frequency(payload: tuple, freq_mhz: float) -> tuple[np.ndarray, dict[s
         raise SolveError(f"surface engine: non-physical solution at {freq_mhz} MHz (input power {sol.input_power:g} W)")
     zin = sol.input_impedance
     return g, {"input_impedance_re": float(zin.real), "input_impedance_im": float(zin.imag),
-               "energy_balance": balance}
+               "energy_balance": balance, **extras}
 
 
 @register_engine
@@ -108,5 +116,5 @@ class SurfaceSolver(FrequencySolver):
         label = f"{what} {where} ({rwg.n} unknowns)"
         meta = {"n_unknowns": rwg.n, "n_triangles": len(mesh.tris)}
         soil = (design.ground.eps_r, design.ground.sigma) if isinstance(design.ground, Soil) else None
-        payload = (mesh, design.ground_kind, n_phi, self.settings.near_factor, soil)
+        payload = (mesh, design.ground_kind, n_phi, self.settings.near_factor, soil, self.settings.method)
         return Plan(solve_frequency, payload, n_phi, meta, label)

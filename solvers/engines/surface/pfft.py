@@ -1,0 +1,572 @@
+"""The surface engine's fast solve: the precorrected-FFT method (pFFT; Phillips & White 1997,
+IEEE TCAD 16, 1059), iterated by GMRES, never forming the dense matrix.
+
+Why pFFT: every metal part we model is flat and level at a few heights, and every kernel the
+engine uses (free space, PEC image, the soil's K_q image and tabulated Sommerfeld parts)
+depends only on the horizontal separation for a given pair of heights, so the interactions
+between distant triangles are 2-D convolutions. The pFFT keeps the engine's own quadrature
+and near-pair integrals exactly (the dense fill is ``Z = Z_3pt + corrections``; the pFFT is
+``Z = Z_grid + (Z_3pt - Z_grid)_near + corrections``), which a fast multipole method or
+discrete complex images would not: the fast solve converges to the dense one, not to another
+model. Time per iteration O(G log G) for a grid of G nodes, memory O(N) (the near pairs).
+
+* Projection: each triangle's 3-point currents and charges are spread onto a regular grid
+  (one layer per metal height) by a separable cubic (4 x 4) Lagrange stencil; the potentials
+  are interpolated back by the transpose (Galerkin).
+* Convolution: per (observation height, source height) the kernel sampled on grid offsets,
+  zero-padded 2-D FFTs (scipy.fft).
+* Precorrection: for every triangle pair closer than a few grid cells (and every pair the
+  engine integrates accurately), the grid's value is replaced by the fill's 3-point value and
+  the engine's near-pair corrections (the same routines as the dense fill).
+* Solve: GMRES preconditioned by the sparse LU of the near matrix (scipy ``splu``); on mirror-
+  symmetric designs the driven symmetry class only (the same reduction as the dense solve).
+
+Everything that does not change with frequency (basis, symmetry, grid and projection, the
+precorrection pairs) is built once per design (:func:`fast_model`) and reused by a worker
+for each frequency it solves.
+"""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+from .halfspace import C0, EPS0, MU0
+from .rwg import (
+    _Q3,
+    _Q7,
+    _Q7_TOUCHING,
+    CLOSE_FACTOR,
+    MirrorSymmetry,
+    Problem,
+    Solution,
+    _block_moments,
+    _far_rule_pairs,
+    _moments,
+    _points,
+    _reflected_near,
+    feed_signs,
+    near_geometry,
+    rwg_basis,
+    smooth_moments,
+)
+
+GRID_FRACTION = 0.3  # grid spacing as a fraction of the plate's typical triangle size
+GRID_MAX = 0.25  # m: never coarser (the soil's reflected kernels vary on ~ its wavelength / 2 pi)
+PRECORRECT_CELLS = 5.0  # grid cells: point pairs closer than this are precorrected (stencil reach 1.5 cells)
+GMRES_RTOL = 1e-5
+GMRES_RESTART = 200
+
+
+def _lagrange(t: np.ndarray) -> np.ndarray:
+    """Cubic Lagrange weights [..., 4] at nodes 0..3 for local coordinates t in [1, 2)."""
+    return np.stack([-(t - 1) * (t - 2) * (t - 3) / 6, t * (t - 2) * (t - 3) / 2,
+                     -t * (t - 1) * (t - 3) / 2, t * (t - 1) * (t - 2) / 6], axis=-1)
+
+
+@dataclass
+class Grid:
+    """A regular grid of spacing ``h`` over the metal, one layer per height ``levels``."""
+
+    x0: float
+    y0: float
+    h: float
+    nx: int
+    ny: int
+    levels: np.ndarray
+
+    @classmethod
+    def around(cls, xy: np.ndarray, levels: np.ndarray, h: float) -> "Grid":
+        lo, hi = xy.min(axis=0), xy.max(axis=0)
+        x0, y0 = lo - 2 * h
+        nx, ny = (np.ceil((hi - lo) / h).astype(int) + 5)
+        return cls(float(x0), float(y0), h, int(nx), int(ny), levels)
+
+    def stencil(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Base node indices (ix, iy) and separable weights (wx, wy) [..., 4] of points ``xy``."""
+        u = (xy[..., 0] - self.x0) / self.h
+        v = (xy[..., 1] - self.y0) / self.h
+        ix, iy = np.floor(u).astype(np.int64) - 1, np.floor(v).astype(np.int64) - 1
+        return ix, iy, _lagrange(u - ix), _lagrange(v - iy)
+
+
+@dataclass
+class FastModel:
+    """The frequency-independent part of a fast solve of one design."""
+
+    prob: Problem
+    symmetry: MirrorSymmetry | None
+    rows: np.ndarray  # the testing functions solved for (representatives, or all)
+    u: sp.csr_matrix  # N x len(rows): currents of the solved class from its unknowns
+    grid: Grid
+    level: np.ndarray  # [T] layer of each triangle
+    project: sp.csr_matrix  # [n_levels * nx * ny, 3T]: point sources -> grid nodes
+    points: tuple[np.ndarray, np.ndarray]  # 3-point rule [T, 3, 3], weights [T, 3]
+    pairs: np.ndarray  # [P, 2] (obs, src) triangle pairs to precorrect (obs in the rows' triangles)
+    _series: "NearSeries | None" = None
+    _assembly: "StaticAssembly | None" = None
+
+    def series(self, k: float) -> "NearSeries":
+        """The engine's near moments as a series in k, (re)built when ``k`` is beyond it."""
+        if self._series is None or k > self._series.k_max:
+            obs = np.zeros(len(self.prob.mesh.tris), bool)
+            obs[self.prob.rwg.plus[self.rows]] = True
+            obs[self.prob.rwg.minus[self.rows]] = True
+            self._series = NearSeries(self.prob, obs, k)
+        return self._series
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """Zero-padded FFT size (linear, not circular, convolution)."""
+        import scipy.fft
+
+        return scipy.fft.next_fast_len(2 * self.grid.nx), scipy.fft.next_fast_len(2 * self.grid.ny)
+
+
+def grid_spacing(prob: Problem) -> float:
+    """Grid spacing set by the plate (the largest triangles), not by the blade's fine cells,
+    whose pairs lie within the precorrection reach anyway."""
+    size, area = prob.mesh.sizes, prob.mesh.areas
+    order = np.argsort(size)
+    median = size[order][np.searchsorted(np.cumsum(area[order]), 0.5 * area.sum())]  # area-weighted
+    return min(GRID_MAX, GRID_FRACTION * float(median))
+
+
+def build_fast_model(prob: Problem, symmetry: MirrorSymmetry | None, h: float | None = None) -> FastModel:
+    """Grid, projection and precorrection pairs of ``prob`` (once per design)."""
+    mesh = prob.mesh
+    h = grid_spacing(prob) if h is None else h
+    zt = mesh.nodes[mesh.tris[:, 0], 2]
+    levels, level = np.unique(np.round(zt, 9), return_inverse=True)
+    grid = Grid.around(mesh.nodes[:, :2], levels, h)
+    pts, w = _points(mesh, _Q3)
+    ix, iy, wx, wy = grid.stencil(pts[..., :2])  # [T, 3], [T, 3, 4]
+    t, q = len(mesh.tris), 3
+    a = np.arange(4)
+    node = ((level[:, None, None, None] * grid.nx + ix[..., None, None] + a[:, None]) * grid.ny
+            + iy[..., None, None] + a[None, :])  # [T, 3, 4, 4]
+    vals = wx[..., :, None] * wy[..., None, :]
+    cols = np.broadcast_to(np.arange(t * q).reshape(t, q, 1, 1), node.shape)
+    project = sp.csr_matrix((vals.ravel(), (node.ravel(), cols.ravel())),
+                            shape=(len(levels) * grid.nx * grid.ny, t * q))
+    if symmetry is not None:
+        rows, u = symmetry.reps, symmetry.u
+    else:
+        rows, u = np.arange(prob.n), sp.identity(prob.n, format="csr")
+    obs = np.zeros(t, bool)
+    obs[prob.rwg.plus[rows]] = True
+    obs[prob.rwg.minus[rows]] = True
+    pairs = _precorrection_pairs(mesh.centroids, mesh.sizes, obs, prob.near_factor, h)
+    return FastModel(prob, symmetry, np.asarray(rows), u.tocsr(), grid, level, project, (pts, w), pairs)
+
+
+def _precorrection_pairs(cen: np.ndarray, size: np.ndarray, obs: np.ndarray, near_factor: float,
+                         h: float) -> np.ndarray:
+    """Triangle pairs (obs, src), obs in ``obs``, whose interaction the grid does not
+    represent to the engine's accuracy: centroids (3-D, direct) closer than the engine's near
+    criterion or than the precorrection reach plus the triangles' half sizes. Image pairs are
+    never closer than direct ones (every level is above the ground), so this covers them."""
+    reach = PRECORRECT_CELLS * h
+    radius = max(near_factor * size.max(), reach + size.max())
+    o_idx = np.flatnonzero(obs)
+    found = cKDTree(cen).query_ball_point(cen[o_idx], radius)
+    lens = np.fromiter((len(x) for x in found), int, len(found))
+    o = np.repeat(o_idx, lens)
+    s = np.fromiter((j for x in found for j in x), int, int(lens.sum()))
+    dist = np.linalg.norm(cen[o] - cen[s], axis=1)
+    keep = (dist < near_factor * np.maximum(size[o], size[s])) | (dist < reach + 0.5 * (size[o] + size[s]))
+    return np.stack([o[keep], s[keep]], axis=1)
+
+
+_CACHE: dict[str, FastModel] = {}
+
+
+def fast_model(prob: Problem, symmetric: bool) -> FastModel:
+    """:func:`build_fast_model` for this design, reused across the frequencies a worker
+    process solves (keyed by the mesh's content; one design kept)."""
+    mesh = prob.mesh
+    key = hashlib.sha256(b"".join([mesh.nodes.tobytes(), mesh.tris.tobytes(), mesh.feed_edges.tobytes(),
+                                   repr((prob.ground, prob.near_factor, prob.soil, symmetric)).encode()])).hexdigest()
+    if key not in _CACHE:
+        _CACHE.clear()
+        symmetry = MirrorSymmetry.of(mesh, prob.rwg) if symmetric else None
+        _CACHE[key] = build_fast_model(prob, symmetry)
+    return _CACHE[key]
+
+
+def problem_of(mesh, ground: str, near_factor: float, soil) -> Problem:
+    """The engine's :class:`Problem`, or the cached model's when the mesh is the same."""
+    for model in _CACHE.values():
+        p = model.prob
+        if (p.ground == ground and p.near_factor == near_factor and p.soil == soil
+                and np.array_equal(p.mesh.tris, mesh.tris) and np.array_equal(p.mesh.nodes, mesh.nodes)):
+            return p
+    return Problem(mesh, rwg_basis(mesh), ground, near_factor, soil)
+
+
+# ------------------------------------------------------------------ per frequency
+def _grid_kernels(model: FastModel, k: float, weights, kernels) -> np.ndarray:
+    """FFTs of the vector and scalar kernels on grid offsets, [n_lev, n_lev, 2, Sx, Sy]
+    (observation level, source level), and the offset tables [n_lev, n_lev, 2, 2nx-1, 2ny-1]
+    used by the precorrection."""
+    import scipy.fft
+
+    g = model.grid
+    sx, sy = model.shape
+    i = np.arange(-(g.nx - 1), g.nx)
+    j = np.arange(-(g.ny - 1), g.ny)
+    rho = g.h * np.hypot(i[:, None], j[None, :])
+    nl = len(g.levels)
+    table = np.empty((nl, nl, 2, len(i), len(j)), complex)
+    for lo, zo in enumerate(g.levels):
+        for ls, zs in enumerate(g.levels):
+            r = np.sqrt(rho ** 2 + (zo - zs) ** 2)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                direct = np.where(r > 1e-9, np.exp(-1j * k * r) / r, 0.0)
+            ka, kq = direct, direct
+            if weights is not None:
+                ri = np.sqrt(rho ** 2 + (zo + zs) ** 2)
+                image = np.exp(-1j * k * ri) / ri
+                ka = ka + weights[0] * image
+                kq = kq + weights[1] * image
+                if kernels is not None:
+                    sa, sq = kernels.lookup(rho, np.full_like(rho, zo + zs))
+                    ka, kq = ka + sa, kq + sq
+            table[lo, ls, 0], table[lo, ls, 1] = ka, kq
+    # circulant embedding: offset d sits at index d mod S
+    circ = np.zeros((nl, nl, 2, sx, sy), complex)
+    ii, jj = i % sx, j % sy
+    circ[..., ii[:, None], jj[None, :]] = table
+    return scipy.fft.fft2(circ, axes=(-2, -1), workers=1), table
+
+
+_ANTIDIAGONAL = np.zeros((16, 7))  # (a, b) of two 4-point stencils -> offset a - b + 3
+for _a in range(4):
+    for _b in range(4):
+        _ANTIDIAGONAL[4 * _a + _b, _a - _b + 3] = 1.0
+
+
+def _grid_pair_values(model: FastModel, table: np.ndarray, pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """What the grid puts in for each point pair of triangle pairs: [P, 3, 3] for the vector
+    and scalar kernels. The stencils are separable, so each point pair sees a 7 x 7 window
+    of kernel offsets weighted by the correlation of its x stencils times that of its y."""
+    g = model.grid
+    pts = model.points[0]
+    o, s = pairs[:, 0], pairs[:, 1]
+    ix, iy, wx, wy = g.stencil(pts[..., :2])  # [T, 3], [T, 3, 4]
+
+    def correlate(w: np.ndarray) -> np.ndarray:  # c[d] = sum_{a - b = d - 3} w_o[a] w_s[b], [P, 3, 3, 7]
+        outer = w[o][:, :, None, :, None] * w[s][:, None, :, None, :]
+        return outer.reshape(*outer.shape[:3], 16) @ _ANTIDIAGONAL
+
+    cxy = (correlate(wx)[..., :, None] * correlate(wy)[..., None, :]).reshape(len(pairs), 3, 3, 49)
+    nl, _, _, nxo, nyo = table.shape
+    flat = table.reshape(-1)
+    d = np.arange(-3, 4)
+    window = (d[:, None] * nyo + d[None, :]).ravel()  # 49 offsets around the centre
+    centre = ((ix[o][:, :, None] - ix[s][:, None, :] + g.nx - 1) * nyo
+              + iy[o][:, :, None] - iy[s][:, None, :] + g.ny - 1)
+    layer = (model.level[o] * nl + model.level[s])[:, None, None] * 2
+    out = []
+    for which in (0, 1):
+        at = (layer + which) * (nxo * nyo) + centre
+        out.append((flat[at[..., None] + window] * cxy).sum(axis=-1))
+    return out[0], out[1]
+
+
+def _pair_moments(model: FastModel, pairs: np.ndarray, k: float, weights, kernels,
+                  grid_table: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(fill's 3-point moments - grid's) [6, P] and scalar [P] of triangle pairs, and the
+    fill's alone: what the precorrection adds and what the preconditioner holds."""
+    pts, w = model.points
+    zt = model.prob.mesh.nodes[model.prob.mesh.tris[:, 0], 2]
+    o, s = pairs[:, 0], pairs[:, 1]
+    fill_a, fill_q = _block_moments(pts[o], w[o], pts[s], w[s], zt[s], k, weights, kernels)
+    ga, gq = _grid_pair_values(model, grid_table, pairs)
+    ww = w[o][:, :, None] * w[s][:, None, :]
+    grid_a = _moments(ga * ww, pts[o], pts[s])
+    grid_q = (gq * ww).sum(axis=(-1, -2))
+    return fill_a, fill_q, grid_a, grid_q
+
+
+class _BasisAssembler:
+    """Sparse basis-pair matrices from triangle-pair moments: Z_mn = c_m c_n [c_a (Srr -
+    v_n.So - v_m.Ss + v_m.v_n S0) + 4 c_phi S0q] summed over the pairs of their triangles
+    (the dense fill's gather formula, for a sparse list of pairs)."""
+
+    def __init__(self, prob: Problem, rows: np.ndarray) -> None:
+        mesh, rwg = prob.mesh, prob.rwg
+        t = len(mesh.tris)
+        area = mesh.areas
+        # each triangle's (up to 3) basis functions: index, coefficient, free vertex
+        tri = np.concatenate([rwg.plus, rwg.minus])
+        fn = np.concatenate([np.arange(rwg.n)] * 2)
+        coef = np.concatenate([rwg.length, -rwg.length]) / (2 * area[tri])
+        free = mesh.nodes[mesh.tris[tri, np.concatenate([rwg.plus_free, rwg.minus_free])], :2]
+        order = np.argsort(tri, kind="stable")
+        tri, fn, coef, free = tri[order], fn[order], coef[order], free[order]
+        slot = np.arange(len(tri)) - np.searchsorted(tri, tri)
+        self.fn = -np.ones((t, 3), int)
+        self.coef = np.zeros((t, 3))
+        self.free = np.zeros((t, 3, 2))
+        self.fn[tri, slot], self.coef[tri, slot], self.free[tri, slot] = fn, coef, free
+        row_of = -np.ones(rwg.n, int)
+        row_of[rows] = np.arange(len(rows))
+        self.row_of = row_of
+        self.shape = (len(rows), rwg.n)
+
+    def __call__(self, pairs: np.ndarray, ma: np.ndarray, mq: np.ndarray, c_a: complex, c_phi: complex) -> sp.csr_matrix:
+        o, s = pairs[:, 0], pairs[:, 1]
+        s0, sx, sy, srr, sxs, sys_ = (m[:, None, None] for m in ma)
+        vm, vn = self.free[o][:, :, None, :], self.free[s][:, None, :, :]
+        val = (c_a * (srr - vn[..., 0] * sx - vn[..., 1] * sy - vm[..., 0] * sxs - vm[..., 1] * sys_
+                      + (vm * vn).sum(-1) * s0) + 4 * c_phi * mq[:, None, None])
+        val = val * self.coef[o][:, :, None] * self.coef[s][:, None, :]
+        r = np.broadcast_to(self.row_of[np.maximum(self.fn[o], 0)][:, :, None] * (self.fn[o] >= 0)[:, :, None]
+                            - (self.fn[o] < 0)[:, :, None], val.shape)
+        c = np.broadcast_to(self.fn[s][:, None, :], val.shape)
+        keep = (r >= 0) & (c >= 0)
+        return sp.csr_matrix((val[keep], (r[keep], c[keep])), shape=self.shape)
+
+
+class StaticAssembly:
+    """The near matrices' sparsity, built once per design: every (triangle pair, basis pair)
+    entry's place in a CSR matrix, so each frequency only computes values and sums them into
+    place (``np.bincount``) instead of building and adding sparse matrices."""
+
+    def __init__(self, prob: Problem, rows: np.ndarray, pair_lists: list[np.ndarray]) -> None:
+        a = _BasisAssembler(prob, rows)
+        pairs = np.concatenate(pair_lists)
+        o, s = pairs[:, 0], pairs[:, 1]
+        fo, fs = a.fn[o], a.fn[s]
+        r = np.where(fo >= 0, a.row_of[np.maximum(fo, 0)], -1)[:, :, None] + np.zeros((1, 1, 3), int)
+        c = np.broadcast_to(fs[:, None, :], r.shape)
+        keep = (r >= 0) & (c >= 0)
+        self.keep = keep
+        self.cc = (a.coef[o][:, :, None] * a.coef[s][:, None, :])[keep]
+        self.vm = np.broadcast_to(a.free[o][:, :, None, :], keep.shape + (2,))[keep]
+        self.vn = np.broadcast_to(a.free[s][:, None, :, :], keep.shape + (2,))[keep]
+        self.pair_of = np.broadcast_to(np.arange(len(pairs))[:, None, None], keep.shape)[keep]
+        lin = r[keep].astype(np.int64) * a.shape[1] + c[keep]
+        uniq, self.slot = np.unique(lin, return_inverse=True)
+        self.n_pairs = len(pairs)
+        self.shape = a.shape
+        self.indices = (uniq % a.shape[1]).astype(np.int32)
+        self.indptr = np.searchsorted(uniq // a.shape[1], np.arange(a.shape[0] + 1)).astype(np.int32)
+
+    def values(self, ma: np.ndarray, mq: np.ndarray, c_a: complex, c_phi: complex) -> np.ndarray:
+        """Summed CSR data from triangle-pair moments [6, P] and scalar moments [P]."""
+        p = self.pair_of
+        s0, sx, sy, srr, sxs, sys_ = (m[p] for m in ma)
+        vm, vn = self.vm, self.vn
+        val = self.cc * (c_a * (srr - vn[:, 0] * sx - vn[:, 1] * sy - vm[:, 0] * sxs - vm[:, 1] * sys_
+                                + (vm * vn).sum(-1) * s0) + 4 * c_phi * mq[p])
+        n = len(self.indices)
+        return np.bincount(self.slot, val.real, n) + 1j * np.bincount(self.slot, val.imag, n)
+
+    def matrix(self, data: np.ndarray) -> sp.csr_matrix:
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=self.shape)
+
+
+def near_matrices(model: FastModel, freq_hz: float, grid_table: np.ndarray, weights, kernels,
+                  chunk: int = 5000) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+    """(precorrection, near matrix) [rows x N]: what the grid matvec needs added, and the
+    fill's own near interactions (the preconditioner)."""
+    prob = model.prob
+    k = 2 * np.pi * freq_hz / C0
+    omega = 2 * np.pi * freq_hz
+    c_a = 1j * omega * MU0 / (4 * np.pi)
+    c_phi = -1j / (4 * np.pi * omega * EPS0)
+    fill_a, fill_q, grid_a, grid_q = [], [], [], []
+    for start in range(0, len(model.pairs), chunk):
+        fa, fq, ga, gq = _pair_moments(model, model.pairs[start:start + chunk], k, weights, kernels, grid_table)
+        fill_a.append(fa), fill_q.append(fq), grid_a.append(ga), grid_q.append(gq)
+    cpairs, corr, corr_q = near_corrections(prob, model.series(k), k, weights, kernels)
+    if model._assembly is None or model._assembly.n_pairs != len(model.pairs) + len(cpairs):
+        model._assembly = StaticAssembly(prob, model.rows, [model.pairs, cpairs])
+    asm = model._assembly
+    fa, fq = np.concatenate(fill_a, axis=1), np.concatenate(fill_q)
+    ga, gq = np.concatenate(grid_a, axis=1), np.concatenate(grid_q)
+    near = asm.values(np.concatenate([fa, corr], axis=1), np.concatenate([fq, corr_q]), c_a, c_phi)
+    grid = asm.values(np.concatenate([ga, np.zeros_like(corr)], axis=1), np.concatenate([gq, np.zeros_like(corr_q)]),
+                      c_a, c_phi)
+    return asm.matrix(near - grid), asm.matrix(near)
+
+
+SERIES_TOL = 1e-14  # last term of the smooth part's power series, relative to 1
+SERIES_HEADROOM = 1.6  # a series built at k holds to 1.6 k (a worker's later, higher frequencies)
+SERIES_FLOOR_HZ = 100e6  # and at least to 100 MHz: one build covers the low band
+
+
+class NearSeries:
+    """The engine's accurate near-pair moments (``rwg._near_moments``) for every frequency at
+    the cost of a few: each is the closed-form 1/R part (static) plus the smooth kernel
+    (exp(-jkR) - 1)/R = sum_n (-jk)^n R^(n-1) / n! integrated by the same rules, so the
+    moments of R^(n-1) are computed once per design and each frequency is a weighted sum.
+    Written here because the per-pair rules are the engine's own (no library has them)."""
+
+    def __init__(self, prob: Problem, obs: np.ndarray, k: float) -> None:
+        self.k_max = max(SERIES_HEADROOM * k, 2 * np.pi * SERIES_FLOOR_HZ / C0)
+        # over soil the image enters the scalar potential only (vector weight 0): keep S0 alone
+        self.scalar_images = prob.ground == "soil"
+        mesh = prob.mesh
+        cen, size = mesh.centroids, mesh.sizes
+        self.groups: list[tuple[bool, np.ndarray, np.ndarray, np.ndarray]] = []  # (image, pairs, sing, terms)
+        self.rules: list[tuple[np.ndarray, np.ndarray]] = []  # each group's outer rule
+        for img, pairs in zip((False, True), prob.near):
+            pairs = pairs[obs[pairs[:, 0]]]
+            src = cen[pairs[:, 1]] * (np.array([1, 1, -1]) if img else 1)
+            gap = np.linalg.norm(cen[pairs[:, 0]] - src, axis=1)
+            close = gap < CLOSE_FACTOR * np.maximum(size[pairs[:, 0]], size[pairs[:, 1]])
+            for sel, rule in ((~close, _Q7), (close, _Q7_TOUCHING)):
+                for start in range(0, int(sel.sum()), 20000 if rule is _Q7 else 4000):
+                    pr = pairs[sel][start:start + (20000 if rule is _Q7 else 4000)]
+                    sing, terms = self._terms(mesh, pr, img, rule)
+                    if img and self.scalar_images:
+                        sing, terms = sing[:1], terms[:, :1].copy()
+                    self.groups.append((img, pr, sing, terms))
+                    self.rules.append(rule)
+
+    def _terms(self, mesh, pairs: np.ndarray, image: bool, rule) -> tuple[np.ndarray, np.ndarray]:
+        sing, r, wo, ws, rho, ps = near_geometry(mesh, pairs, image, rule)
+        x = self.k_max * float(r.max(initial=0.0))
+        n_terms, size = 1, x
+        while size > SERIES_TOL:  # x^n / n! for n = 1, 2, ...
+            n_terms += 1
+            size *= x / n_terms
+        terms = np.empty((n_terms, 6, len(pairs)))
+        power = np.broadcast_to(ws[:, None, :], r.shape).copy()
+        for n in range(n_terms):
+            terms[n] = smooth_moments(power, wo, rho, ps)
+            power *= r
+        return sing, terms
+
+    def moments(self, k: float):
+        """(image, pairs, accurate moments [6, n]) per group at wavenumber ``k``."""
+        if k > self.k_max * (1 + 1e-12):
+            raise ValueError("NearSeries: built for a lower frequency")
+        for img, pairs, sing, terms in self.groups:
+            n = np.arange(1, len(terms) + 1)
+            coef = np.cumprod(np.full(len(n), -1j * k) / n)  # (-jk)^n / n!
+            moments = sing + np.tensordot(coef, terms, axes=(0, 0))
+            if len(moments) == 1:  # scalar-only image group: the vector moments are never used (weight 0)
+                moments = np.concatenate([moments, np.zeros((5, moments.shape[1]), complex)])
+            yield img, pairs, moments
+
+
+def near_corrections(prob: Problem, series: NearSeries, k: float, weights, kernels):
+    """``rwg._near_corrections`` with the accurate moments from ``series`` (same pairs,
+    same result to rounding)."""
+    all_pairs, all_a, all_q = [], [], []
+    for img, pr, accurate in series.moments(k):
+        wa, wq = weights if img else (1.0, 1.0)
+        diff = accurate - _far_rule_pairs(prob.mesh, pr, k, img)
+        all_pairs.append(pr)
+        all_a.append(wa * diff)
+        all_q.append(wq * diff[0])
+        if img and kernels is not None:
+            ca, cq = _reflected_near(prob.mesh, pr, kernels)
+            all_pairs.append(pr)
+            all_a.append(ca)
+            all_q.append(cq)
+    if not all_pairs:
+        return np.zeros((0, 2), int), np.zeros((6, 0), complex), np.zeros(0, complex)
+    return np.concatenate(all_pairs), np.concatenate(all_a, axis=1), np.concatenate(all_q)
+
+
+class FastOperator:
+    """Z x at one frequency (the rows of the solved class) without forming Z."""
+
+    def __init__(self, model: FastModel, freq_hz: float) -> None:
+        prob = model.prob
+        self.model = model
+        self.k = 2 * np.pi * freq_hz / C0
+        omega = 2 * np.pi * freq_hz
+        self.c_a = 1j * omega * MU0 / (4 * np.pi)
+        self.c_phi = -1j / (4 * np.pi * omega * EPS0)
+        g = model.grid
+        reach = 8 * g.h  # grid offsets reach 5 cells per axis past the metal
+        weights, kernels = prob.image_weights(freq_hz), prob.reflected_kernels(freq_hz, reach)
+        self.kernel_fft, table = _grid_kernels(model, self.k, weights, kernels)
+        self.pre, self.near = near_matrices(model, freq_hz, table, weights, kernels)
+        self.c1t = prob.c1.T.tocsr()
+        self.cvt = [c.T.tocsr() for c in prob.cv]
+        # testing: rows of C1, Cx, Cy for the solved rows
+        self.c1r = prob.c1[model.rows]
+        self.cvr = [c[model.rows] for c in prob.cv]
+
+    def matvec(self, x: np.ndarray) -> np.ndarray:
+        """Z[rows] @ x for a full current vector x [N]."""
+        import scipy.fft
+
+        m = self.model
+        g = m.grid
+        pts, w = m.points
+        alpha = self.c1t @ x  # J = alpha rho + beta on each triangle; div J = 2 alpha
+        beta = np.stack([-(self.cvt[0] @ x), -(self.cvt[1] @ x)], axis=-1)
+        jx = w * (alpha[:, None] * pts[..., 0] + beta[:, None, 0])
+        jy = w * (alpha[:, None] * pts[..., 1] + beta[:, None, 1])
+        qc = w * (2 * alpha[:, None])
+        nl, sx, sy = len(g.levels), *m.shape
+        src = np.zeros((3, nl, sx, sy), complex)
+        for c, vals in enumerate((jx, jy, qc)):
+            src[c, :, :g.nx, :g.ny] = (m.project @ vals.ravel()).reshape(nl, g.nx, g.ny)
+        f = scipy.fft.fft2(src, axes=(-2, -1), workers=1)
+        pot = np.empty_like(f)
+        kf = self.kernel_fft
+        for lo in range(nl):
+            pot[0, lo] = np.einsum("sxy,sxy->xy", kf[lo, :, 0], f[0])
+            pot[1, lo] = np.einsum("sxy,sxy->xy", kf[lo, :, 0], f[1])
+            pot[2, lo] = np.einsum("sxy,sxy->xy", kf[lo, :, 1], f[2])
+        pot = scipy.fft.ifft2(pot, axes=(-2, -1), workers=1)[..., :g.nx, :g.ny]
+        ax, ay, phi = ((m.project.T @ pot[c].ravel()).reshape(pts.shape[:2]) for c in range(3))
+        t0 = (w * (ax * pts[..., 0] + ay * pts[..., 1])).sum(axis=1)
+        t1x, t1y = (w * ax).sum(axis=1), (w * ay).sum(axis=1)
+        t2 = (w * phi).sum(axis=1)
+        y = self.c_a * (self.c1r @ t0 - self.cvr[0] @ t1x - self.cvr[1] @ t1y) + 2 * self.c_phi * (self.c1r @ t2)
+        return y + self.pre @ x
+
+
+@dataclass
+class FastStats:
+    """How a fast solve went (recorded per frequency)."""
+
+    iterations: int
+    residual: float
+
+
+def solve_fast(prob: Problem, freq_hz: float, symmetric: bool) -> tuple[Solution, FastStats]:
+    """Currents for a 1 V delta gap, by GMRES on the pFFT operator (see the module doc)."""
+    import scipy.sparse.linalg as spla
+
+    if len(prob.rwg.feed) == 0:
+        raise ValueError("surface engine: the mesh has no feed edges")
+    model = fast_model(prob, symmetric)
+    op = FastOperator(model, freq_hz)
+    sign = feed_signs(prob)
+    v = np.zeros(prob.n, dtype=complex)
+    v[prob.rwg.feed] = sign * prob.rwg.length[prob.rwg.feed] * prob.mesh.feed_volts
+    u = model.u
+    n = u.shape[1]
+    vr = v[model.rows]
+    lu = spla.splu((op.near @ u).tocsc())
+    a_op = spla.LinearOperator((n, n), matvec=lambda a: op.matvec(u @ a), dtype=complex)
+    m_op = spla.LinearOperator((n, n), matvec=lu.solve, dtype=complex)
+    count = [0]
+
+    def tick(_: np.ndarray) -> None:
+        count[0] += 1
+
+    a, info = spla.gmres(a_op, vr, M=m_op, rtol=GMRES_RTOL, atol=0.0, restart=GMRES_RESTART, maxiter=10,
+                         callback=tick, callback_type="pr_norm")
+    residual = float(np.linalg.norm(a_op.matvec(a) - vr) / np.linalg.norm(vr))
+    if info != 0 or not np.isfinite(residual) or residual > 10 * GMRES_RTOL:
+        raise ArithmeticError(f"surface engine (fast): GMRES did not converge at {freq_hz / 1e6:g} MHz "
+                              f"({count[0]} iterations, relative residual {residual:.1e}); "
+                              "try --method dense")
+    i = u @ a
+    i_in = complex(np.sum(sign * prob.rwg.length[prob.rwg.feed] * i[prob.rwg.feed]))
+    return Solution(freq_hz, i, i_in, prob.mesh.feed_volts), FastStats(count[0], residual)

@@ -1,0 +1,112 @@
+"""The fast (precorrected-FFT) solve against the dense reference, piece by piece."""
+import numpy as np
+import pytest
+
+from groundplane.design import Design, InfinitePEC, Soil
+from groundplane.shapes import PRESETS
+from solvers.engines.surface import pfft
+from solvers.engines.surface.halfspace import C0, reflected_integrals, soil_permittivity
+from solvers.engines.surface.mesh import SurfaceSettings, build_mesh
+from solvers.engines.surface.rwg import (
+    _Q7,
+    _Q7_TOUCHING,
+    MirrorSymmetry,
+    Problem,
+    _near_moments_rule,
+    gain_pattern,
+    impedance_matrix,
+    rwg_basis,
+    solve,
+)
+
+
+def _problem(ground: str, spacing: float = 1.5) -> Problem:
+    design = Design(PRESETS["square-10"], Soil() if ground == "soil" else InfinitePEC())
+    settings = SurfaceSettings(spacing=spacing, blade_cells=(6, 4), plate_height=0.005 if ground == "soil" else 0.05)
+    mesh = build_mesh(design, settings)
+    soil = (design.ground.eps_r, design.ground.sigma) if ground == "soil" else None
+    return Problem(mesh, rwg_basis(mesh), ground, settings.near_factor, soil)
+
+
+@pytest.mark.parametrize("ground", ["pec", "soil"])
+def test_fast_matvec_is_the_dense_matrix(ground):
+    """Z x by grid + precorrection against the dense fill's rows, for a random current: the
+    grid's error on the far pairs is small against |Z||x| (the near pairs are exact)."""
+    prob = _problem(ground)
+    model = pfft.build_fast_model(prob, None)
+    op = pfft.FastOperator(model, 70e6)
+    z = impedance_matrix(prob, 70e6)
+    x = np.random.default_rng(1).normal(size=prob.n) + 1j * np.random.default_rng(2).normal(size=prob.n)
+    err = np.abs(op.matvec(x) - z @ x).max() / (np.abs(z).max() * np.abs(x).max())
+    assert err < 2e-4
+    # the preconditioner is the fill's own near matrix: Z where every triangle pair of two basis
+    # functions is near (the diagonal among them; an entry at the list's edge holds only some)
+    near = op.near.tocoo()
+    assert np.allclose(op.near.diagonal(), np.diag(z), rtol=1e-9)
+    held = {(int(o), int(s)) for o, s in model.pairs}
+    rwg = prob.rwg
+    whole = np.array([all((int(to), int(ts)) in held for to in (rwg.plus[m], rwg.minus[m])
+                          for ts in (rwg.plus[n], rwg.minus[n])) for m, n in zip(near.row, near.col)])
+    assert whole.mean() > 0.5
+    assert np.allclose(near.data[whole], z[near.row, near.col][whole], rtol=1e-9, atol=1e-12 * np.abs(z).max())
+
+
+@pytest.mark.parametrize("ground", ["pec", "soil"])
+def test_fast_solve_gives_the_dense_beam(ground):
+    prob = _problem(ground)
+    sym = MirrorSymmetry.of(prob.mesh, prob.rwg)
+    dense = solve(prob, 80e6, sym)
+    fast, stats = pfft.solve_fast(prob, 80e6, symmetric=True)
+    assert stats.residual < 1e-4 and stats.iterations > 1
+    th = np.arange(0.0, 81.0, 5.0)
+    gd, gf = gain_pattern(prob, dense, th, th), gain_pattern(prob, fast, th, th)
+    assert np.sqrt(np.mean((10 * np.log10(gf / gd)) ** 2)) < 2e-3
+    assert abs(fast.input_impedance - dense.input_impedance) < 0.05
+
+
+def test_near_series_is_the_engines_near_moments_at_any_frequency():
+    """The power series in k of the smooth part reproduces the per-frequency integration."""
+    prob = _problem("soil")
+    obs = np.ones(len(prob.mesh.tris), bool)
+    series = pfft.NearSeries(prob, obs, 2 * np.pi * 50e6 / C0)
+    for f in (40e6, 75e6, 100e6):
+        k = 2 * np.pi * f / C0
+        assert {id(r) for r in series.rules} == {id(_Q7), id(_Q7_TOUCHING)}
+        for (img, pairs, got), (_, _, sing, _), rule in zip(series.moments(k), series.groups, series.rules):
+            want = _near_moments_rule(prob.mesh, pairs, k, img, rule)
+            rows = len(sing)  # scalar-only image groups over soil keep S0 alone
+            assert np.allclose(got[:rows], want[:rows], rtol=1e-10, atol=1e-13 * np.abs(want).max())
+    with pytest.raises(ValueError, match="lower frequency"):
+        next(series.moments(2 * series.k_max))
+
+
+def test_split_sommerfeld_tables_match_the_full_spectral_rule():
+    """The spectral tail integrated to 2 m only: within 1e-6 of the full rule (plate height
+    sum 1 cm, where the tail is longest) and 10x faster is what the split is for."""
+    f = 40e6
+    k0, eps = 2 * np.pi * f / C0, soil_permittivity(3.5, 0.02, f)
+    rho = np.concatenate([np.arange(0.0, 0.06, 0.005), np.arange(0.1, 12.0, 0.37)])
+    a0, q0 = reflected_integrals(rho, k0, eps, 0.01, split=False)
+    a1, q1 = reflected_integrals(rho, k0, eps, 0.01)
+    assert np.abs(a1 - a0).max() < 1e-6 * np.abs(a0).max()
+    assert np.abs(q1 - q0).max() < 1e-6 * np.abs(q0).max()
+
+
+def test_solver_method_is_a_setting_recorded_in_the_beam(tmp_path, monkeypatch):
+    from solvers.engines.surface import SurfaceSolver
+
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path))
+    design = Design(PRESETS["square-10"], Soil())
+    freqs = [60.0, 80.0]
+    beams = {}
+    for method in ("dense", "fast"):
+        settings = SurfaceSettings(spacing=2.0, blade_cells=(4, 4), method=method)
+        solver = SurfaceSolver(settings, workers=0)
+        beams[method] = solver.solve(design, freqs)
+        assert beams[method].meta["mesh"]["method"] == method
+    assert beams["dense"].meta["cache_key"] != beams["fast"].meta["cache_key"]
+    assert len(beams["fast"].meta["gmres_iterations"]) == 2
+    up = beams["fast"].theta_deg <= 80
+    assert np.abs(10 * np.log10(beams["fast"].gain[:, up] / beams["dense"].gain[:, up])).max() < 5e-3
+    with pytest.raises(Exception, match="method"):
+        SurfaceSettings(method="fmm")
