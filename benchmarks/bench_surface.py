@@ -36,7 +36,7 @@ def solve(preset: str, spacing: float, method: str, freqs: np.ndarray, workers: 
 
 
 def foms(beam) -> tuple[float, float]:
-    res = figure_of_merit(beam, FomSettings())
+    res = figure_of_merit(beam, FomSettings(lst_bin_hours=0.0))
     return res.lst_averaged_fom_mk, res.in_lst_bins(2.0).lst_averaged_fom_mk
 
 

@@ -52,8 +52,9 @@ class FomSettings:
                                         "(deg)", flag="--antenna-azimuth", metavar="DEG")
     site: Site = MRO
     n_lst: int = option(360, "LST bins over 24 h")
-    lst_bin_hours: float = option(0.0, "average the simulated spectra into LST bins this wide (h) before the fit, "
-                                  "as data are binned (the paper compares with data in 2 h bins); 0: every LST",
+    lst_bin_hours: float = option(paper.DATA_LST_BIN_HOURS, "average the simulated spectra into LST bins this wide "
+                                  "(h) before the fit, as drift-scan data are binned (the paper fits data binned in "
+                                  "2 h of LST, its section 6); 0: every LST",
                                   flag="--lst-bin", metavar="HOURS")
     normalise: bool = option(False, "divide by the beam integral (EDGES pipeline) instead of 4 pi")
     subtract_cmb: bool = option(False, "remove 2.725 K from the map before scaling it")
@@ -75,7 +76,8 @@ class FomSettings:
             if not (self.lst_bin_hours <= 24 and abs(per_bin - round(per_bin)) < 1e-9
                     and self.n_lst % round(per_bin) == 0):
                 raise SettingsError(f"--lst-bin {self.lst_bin_hours:g} h must hold a whole number of the "
-                                    f"{self.n_lst} LSTs (every {24 / self.n_lst:g} h) and divide 24 h evenly")
+                                    f"{self.n_lst} LSTs (every {24 / self.n_lst:g} h) and divide 24 h evenly; "
+                                    "--lst-bin 0 scores every LST")
 
     @property
     def lsts_per_bin(self) -> int:

@@ -5,14 +5,15 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from groundplane.cli import CLIError, command, invocation
 from groundplane.fom import FomSettings
 from groundplane.options import add_options, from_args, options
 from solvers.cli import add_solve_options, solve_options
-from solvers.engines.base import SolveSettings
 
-from .evaluate import EvalSettings
+if TYPE_CHECKING:
+    from .evaluate import EvalSettings
 
 
 def add_eval_options(p: argparse.ArgumentParser) -> None:
@@ -23,6 +24,8 @@ def add_eval_options(p: argparse.ArgumentParser) -> None:
 
 def eval_settings(args: argparse.Namespace) -> EvalSettings:
     """EvalSettings from the parsed command line (options not given take the dataclass defaults)."""
+    from .evaluate import EvalSettings  # here: the engines load only for a command that solves
+
     soil, solve, model = solve_options(args)
     return EvalSettings(soil=soil, solver=model, freqs_mhz=solve.freqs_mhz, workers=solve.workers,
                         engine=solve.engine, fom=from_args(FomSettings, args))
@@ -190,6 +193,8 @@ def _run_study_cmd(args: argparse.Namespace) -> int:
     if s.uses_settings:
         settings = eval_settings(args)
     else:
+        from solvers.engines.base import SolveSettings
+
         owners = [Soil, SolveSettings, FomSettings, *(c.settings_class for c in _engines())]
         given = sorted({o.flag for c in owners for o in options(c) if getattr(args, o.key, None) is not None})
         if given:

@@ -24,6 +24,7 @@ from groundplane.errors import UserInputError
 from groundplane.fom import FomSettings, figure_of_merit, narrow_band_rms
 from groundplane.shapes import GroundPlane, to_dict
 from solvers.engines import DEFAULT_FREQS_MHZ, ENGINES, Solver, make_solver
+from solvers.engines.base import SolveSettings
 from solvers.io import load_beam
 
 RESIDUAL_LSTS_H = (2.0, 6.0, 12.0, 18.0)
@@ -62,7 +63,7 @@ class EvalSettings:
     freqs_mhz: tuple[float, ...] = DEFAULT_FREQS_MHZ
     fom: FomSettings = field(default_factory=FomSettings)
     workers: int = 2
-    engine: str = "nec"
+    engine: str = SolveSettings.engine  # one default, the solver's
 
     def check_scorable(self) -> None:
         """Refuse, before any solve, an engine that cannot solve candidates on soil and

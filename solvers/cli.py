@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 from groundplane.cli import CLIError, add_shape_options, command, shape_from_args
 from groundplane.design import Soil
@@ -10,13 +10,16 @@ from groundplane.errors import ConfigError
 from groundplane.files import atomic_path, check_output
 from groundplane.options import add_options, build, from_args, option_keys
 
-from .engines import ENGINES
-from .engines.base import SolveSettings
+if TYPE_CHECKING:
+    from .engines.base import SolveSettings
 
 
 def add_solve_options(p: argparse.ArgumentParser) -> None:
     """Soil, engine, frequencies and every engine's model options (generated from their
     settings dataclasses, so each command that solves takes the same flags)."""
+    from .engines import ENGINES  # here, not at import: `groundplane fom` never loads an engine
+    from .engines.base import SolveSettings
+
     add_options(p, Soil, "soil (MRO by default)")
     add_options(p, SolveSettings, "solver")
     for name, cls in ENGINES.items():
@@ -25,6 +28,9 @@ def add_solve_options(p: argparse.ArgumentParser) -> None:
 
 def solve_options(args: argparse.Namespace) -> tuple[Soil, SolveSettings, Any]:
     """(soil, solve settings, engine settings) from the parsed command line."""
+    from .engines import ENGINES
+    from .engines.base import SolveSettings
+
     solve = from_args(SolveSettings, args)
     if solve.engine not in ENGINES:
         raise CLIError(f"--engine {solve.engine}: choose one of {', '.join(ENGINES)}")
@@ -33,6 +39,9 @@ def solve_options(args: argparse.Namespace) -> tuple[Soil, SolveSettings, Any]:
 
 def solve_options_from_mapping(values: Mapping[str, Any], where: str) -> tuple[Soil, SolveSettings, Any]:
     """The same from a sweep file's ``[solver]`` table (strictly typed; unknown keys refused)."""
+    from .engines import ENGINES
+    from .engines.base import SolveSettings
+
     engine = values.get("engine", SolveSettings().engine)
     if engine not in ENGINES:
         raise ConfigError(f"{where}engine '{engine}': choose one of {', '.join(ENGINES)}")
@@ -45,7 +54,7 @@ def solve_options_from_mapping(values: Mapping[str, Any], where: str) -> tuple[S
     return soil, solve, model
 
 
-@command("solve", "solve a candidate with an EM engine (NEC-2 by default) and write the native beam file")
+@command("solve", "solve a candidate with an EM engine (the surface engine by default) and write the native beam file")
 def _setup_solve(p: argparse.ArgumentParser):
     add_shape_options(p, required=False)
     p.add_argument("--ground", choices=["soil", "pec", "free"], default="soil",

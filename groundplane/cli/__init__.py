@@ -46,16 +46,20 @@ def load_commands() -> None:
         ep.load()
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The parser with every registered sub-command attached."""
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The parser with every registered sub-command attached; given the command line, only
+    the sub-command it names is set up (setting one up may import what it needs: the
+    engines for ``solve``), so ``groundplane fom`` starts without them."""
     load_commands()
+    chosen = None if argv is None else next((a for a in argv if not a.startswith("-")), "")
     p = argparse.ArgumentParser(prog="groundplane", description="Design ground planes for low-frequency "
                                 "radio antennas: shapes, MoM solves, the chromaticity FoM, optimisation.")
     sub = p.add_subparsers(dest="command", required=True)
     for name in sorted(COMMANDS):
         help, setup = COMMANDS[name]
         sp = sub.add_parser(name, help=help, description=help)
-        sp.set_defaults(run=setup(sp))
+        if chosen is None or name == chosen:
+            sp.set_defaults(run=setup(sp))
     return p
 
 
@@ -66,7 +70,8 @@ def invocation() -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``groundplane`` command."""
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(argv)
     args = parser.parse_args(argv)
     try:
         return int(args.run(args) or 0)

@@ -46,8 +46,33 @@ def design_study(settings: EvalSettings, out_dir: str | Path, command: str, prog
     write_csv(out / "design_study.csv",
               [{**t, **({"compare_fom_mk": other[i]["our_fom_mk"]} if other else {})} for i, t in enumerate(table)])
     pec = pec_reference_fom(settings, progress)
-    (out / "design_study.md").write_text(_design_md(table, settings, command, other, compare, pec))
+    (out / "design_study.md").write_text(_design_md(table, settings, command, other, compare, pec)
+                                         + _mesh_section(out, settings))
     return table
+
+
+def _mesh_section(out: Path, settings: EvalSettings) -> str:
+    """The mesh-convergence rows that chose the mesh, when that study was written beside this
+    one (``groundplane study mesh-convergence -o`` the same folder) at these settings."""
+    import csv
+
+    from .mesh_convergence import chosen_mesh
+
+    path = out / "mesh_convergence.csv"
+    if not path.exists():
+        return ""
+    rows = []
+    for r in csv.DictReader(path.open()):
+        fom = float(r["fom_mk"]) if r["fom_mk"] else None
+        rows.append({"preset": r["preset"], "mesh_m": float(r["mesh_m"]), "fom_mk": fom})
+    mesh, verdict = chosen_mesh(rows)
+    here = settings.spacing
+    same = (f"This study's mesh ({here:g} m) is the one the rule picks." if mesh is not None and here == mesh
+            else f"This study's mesh ({here:g} m) is **not** the one the rule picks"
+                 + (f" ({mesh:g} m)." if mesh is not None else " (none passes)."))
+    table = (out / "mesh_convergence.md").read_text().split("\n")
+    body = [ln for ln in table if ln.startswith("|")]
+    return "\n".join(["", "## The mesh (`mesh_convergence.md`, same folder)", "", *body, "", verdict, "", same, ""])
 
 
 PAPER_PEC_FOM_MK = paper.PEC_FOM_MK

@@ -1,10 +1,8 @@
 """MoM engines behind one protocol (:class:`~solvers.engines.base.Solver`). Each engine is
-a sub-package that registers its solver class with :func:`register_engine`; every
-sub-package here is imported, so a second engine is a new folder and nothing else."""
+a sub-package that registers its solver class with :func:`register_engine`; the registry
+(``ENGINES``) imports every sub-package here on first use, so a second engine is a new
+folder and nothing else, and importing this package costs no engine's imports."""
 from __future__ import annotations
-
-import importlib
-import pkgutil
 
 from .base import (
     DEFAULT_FREQS_MHZ,
@@ -19,7 +17,3 @@ from .cache import BeamCache
 
 __all__ = ["DEFAULT_FREQS_MHZ", "ENGINES", "BeamCache", "FrequencySolver", "Plan", "Solver", "make_solver",
            "register_engine"]
-
-for _m in pkgutil.iter_modules(__path__):
-    if _m.ispkg:
-        importlib.import_module(f"{__name__}.{_m.name}")

@@ -20,7 +20,7 @@ from groundplane.reference import reference_antenna_temperature
 from groundplane.sky import lst_grid
 from tests.conftest import EXAMPLE_BEAM
 
-HIGH = FomSettings(fit_band_mhz=(90.0, 190.0))
+HIGH = FomSettings(fit_band_mhz=(90.0, 190.0), lst_bin_hours=0.0)  # every LST: compared LST by LST
 
 
 
@@ -77,7 +77,7 @@ def test_achromatic_beam_has_zero_fom(highband):
 
 def test_linlog_absorbs_power_law_and_catches_a_bump():
     f = np.arange(55.0, 98.0)
-    s = FomSettings()
+    s = FomSettings(lst_bin_hours=0.0)  # one spectrum, no LSTs to bin
     pl = 3000 * (f / 75) ** -2.55 * (1 + 0.01 * np.log(f / 75))
     assert fom_from_spectra(f, pl[:, None], s).fom[0] < 1e-9
     bump = pl + 0.1 * np.exp(-0.5 * ((f - 78) / 3) ** 2)
@@ -120,7 +120,7 @@ def test_sky_cache_reused_from_disk(highband, tmp_path, monkeypatch):
     from groundplane import sky
 
     monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path))
-    s = FomSettings(fit_band_mhz=(90.0, 190.0), n_lst=4)
+    s = FomSettings(fit_band_mhz=(90.0, 190.0), n_lst=4, lst_bin_hours=0.0)
     hs = sky_for(highband, s)
     files = list(tmp_path.glob("horizon_sky_*.npy"))
     assert len(files) == 1
@@ -153,7 +153,7 @@ def test_damaged_sky_cache_is_recomputed_not_trusted(highband, tmp_path, monkeyp
 
     monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path))
     sky._MEMORY.clear()
-    s = FomSettings(fit_band_mhz=(90.0, 190.0), n_lst=4)
+    s = FomSettings(fit_band_mhz=(90.0, 190.0), n_lst=4, lst_bin_hours=0.0)
     good = figure_of_merit(highband, s).lst_averaged_fom_mk
     f = next(tmp_path.glob("horizon_sky_*.npy"))
     raw = f.read_bytes()
@@ -193,13 +193,13 @@ def test_lst_bins_average_spectra_before_the_fit():
     binned = FomSettings(n_lst=24, lst_bin_hours=2)
     t_flip = smooth[:, None] + bump[:, None] * flip[None, :]
     t_stay = smooth[:, None] + bump[:, None] * np.ones(24)[None, :]
-    every = fom_from_spectra(f, t_flip, FomSettings(n_lst=24))
+    every = fom_from_spectra(f, t_flip, FomSettings(n_lst=24, lst_bin_hours=0.0))
     assert every.lst_averaged_fom_mk > 50
     flip_binned = fom_from_spectra(f, t_flip, binned)
     assert flip_binned.fom.shape == (12,) and flip_binned.lst_averaged_fom_mk < 1e-6
     assert np.allclose(flip_binned.lst_hours, np.arange(12) * 2 + 1)
     stay = fom_from_spectra(f, t_stay, binned)
-    assert stay.lst_averaged_fom_mk == pytest.approx(fom_from_spectra(f, t_stay, FomSettings(n_lst=24)).lst_averaged_fom_mk)
+    assert stay.lst_averaged_fom_mk == pytest.approx(fom_from_spectra(f, t_stay, FomSettings(n_lst=24, lst_bin_hours=0.0)).lst_averaged_fom_mk)
 
 
 def test_lst_bins_must_tile_the_day_and_leave_old_identities_alone():
@@ -209,7 +209,10 @@ def test_lst_bins_must_tile_the_day_and_leave_old_identities_alone():
         FomSettings(lst_bin_hours=-2)
     with pytest.raises(Exception, match="100 LSTs"):
         FomSettings(n_lst=100, lst_bin_hours=2)
-    assert "lst_bin_hours" not in FomSettings().as_dict()  # unbinned sweep keys are unchanged
+    assert FomSettings().lst_bin_hours == 2.0  # the default: the paper's 2 h bins (its section 6)
+    assert "lst_bin_hours" not in FomSettings(lst_bin_hours=0).as_dict()  # unbinned sweep keys are unchanged
+    with pytest.raises(Exception, match="--lst-bin 0"):  # the message says how to score every LST instead
+        FomSettings(n_lst=4)
     assert FomSettings(lst_bin_hours=2).as_dict()["lst_bin_hours"] == 2
     assert FomSettings(lst_bin_hours=2).lsts_per_bin == 30
 
@@ -217,7 +220,7 @@ def test_lst_bins_must_tile_the_day_and_leave_old_identities_alone():
 def test_an_unbinned_result_rebins_without_a_new_sky_product():
     f = np.arange(50.0, 101.0)
     t = 1000 * (f / 75)[:, None] ** -2.55 + 0.5 * np.sin(np.arange(24))[None, :] * np.exp(-0.5 * ((f - 70) / 3) ** 2)[:, None]
-    every = fom_from_spectra(f, t, FomSettings(n_lst=24))
+    every = fom_from_spectra(f, t, FomSettings(n_lst=24, lst_bin_hours=0.0))
     direct = fom_from_spectra(f, t, FomSettings(n_lst=24, lst_bin_hours=4))
     rebinned = every.in_lst_bins(4)
     assert np.allclose(rebinned.fom, direct.fom) and np.allclose(rebinned.lst_hours, direct.lst_hours)

@@ -111,17 +111,17 @@ def test_config_and_cli_take_plate_height_and_a_finer_centre(tmp_path):
     from optimise.cli import eval_settings
 
     cfg = tmp_path / "s.toml"
-    cfg.write_text("[solver]\nmesh = 1.0\nplate_height = 0.03\nrefine_centre = [2.0, 4]\n"
+    cfg.write_text("[solver]\nengine = 'nec'\nmesh = 1.0\nplate_height = 0.03\nrefine_centre = [2.0, 4]\n"
                    "[[candidate]]\npreset = 'square-10'\n")
     _, _, settings = load_config(cfg)
     mesh = settings.solver_settings()
     assert (mesh.plate_height, mesh.refine_half_width, mesh.refine_factor) == (0.03, 2.0, 4)
-    args = build_parser().parse_args(["optimise", "--shape", "square", "--max-area", "100", "-o", "x",
-                                      "--refine-centre", "2", "4", "--plate-height", "0.03"])
+    args = build_parser().parse_args(["optimise", "--engine", "nec", "--shape", "square", "--max-area", "100", "-o",
+                                      "x", "--refine-centre", "2", "4", "--plate-height", "0.03"])
     mesh = eval_settings(args).solver_settings()
     assert (mesh.plate_height, mesh.refine_half_width, mesh.refine_factor) == (0.03, 2.0, 4)
-    args = build_parser().parse_args(["optimise", "--shape", "square", "--max-area", "100", "-o", "x",
-                                      "--refine-centre", "2", "2.5"])
+    args = build_parser().parse_args(["optimise", "--engine", "nec", "--shape", "square", "--max-area", "100", "-o",
+                                      "x", "--refine-centre", "2", "2.5"])
     with pytest.raises(ConfigError, match="whole number"):
         eval_settings(args)
 

@@ -181,6 +181,29 @@ def _precorrection_pairs(cen: np.ndarray, size: np.ndarray, obs: np.ndarray, nea
     return np.stack([o[keep], s[keep]], axis=1)
 
 
+BYTES_PER_PAIR = 1600  # peak bytes per precorrection or series pair beyond the series itself (measured; see
+# memory_estimate)
+BASE_BYTES = 400 * 2**20  # interpreter, numpy/scipy and chunk temporaries of one worker
+
+
+def memory_estimate(prob: Problem, symmetry: MirrorSymmetry | None) -> int:
+    """Peak bytes of one worker's fast solve of ``prob``, before any: the power series of the
+    engine's near moments (8 B x terms x moments per near pair), the sparse near matrices and
+    their structure (per pair), the grid's kernels and the fixed base. Calibrated on measured
+    peak resident memory (``benchmarks/bench_surface.py --memory``)."""
+    model = build_fast_model(prob, symmetry)
+    obs = np.zeros(len(prob.mesh.tris), bool)
+    obs[prob.rwg.plus[model.rows]] = True
+    obs[prob.rwg.minus[model.rows]] = True
+    near = [int(obs[p[:, 0]].sum()) for p in prob.near]
+    terms = 32  # typical at 100 MHz on these meshes
+    series = 8 * terms * (6 * near[0] + (sum(near[1:]) * (1 if prob.ground == "soil" else 6)))
+    nl = len(model.grid.levels)
+    sx, sy = model.shape
+    grid = 16 * sx * sy * (2 * nl * nl + 9 * nl) + 16 * (2 * model.grid.nx) * (2 * model.grid.ny) * 2 * nl * nl
+    return int(BASE_BYTES + series + BYTES_PER_PAIR * (len(model.pairs) + sum(near)) + grid)
+
+
 _CACHE: dict[str, FastModel] = {}
 
 
@@ -293,9 +316,9 @@ def _pair_moments(model: FastModel, pairs: np.ndarray, k: float, weights, kernel
 
 
 class _BasisAssembler:
-    """Sparse basis-pair matrices from triangle-pair moments: Z_mn = c_m c_n [c_a (Srr -
-    v_n.So - v_m.Ss + v_m.v_n S0) + 4 c_phi S0q] summed over the pairs of their triangles
-    (the dense fill's gather formula, for a sparse list of pairs)."""
+    """Each triangle's (up to 3) basis functions, for sparse basis-pair matrices from
+    triangle-pair moments: Z_mn = c_m c_n [c_a (Srr - v_n.So - v_m.Ss + v_m.v_n S0) +
+    4 c_phi S0q] summed over the pairs of their triangles (the dense fill's gather formula)."""
 
     def __init__(self, prob: Problem, rows: np.ndarray) -> None:
         mesh, rwg = prob.mesh, prob.rwg
@@ -318,54 +341,41 @@ class _BasisAssembler:
         self.row_of = row_of
         self.shape = (len(rows), rwg.n)
 
-    def __call__(self, pairs: np.ndarray, ma: np.ndarray, mq: np.ndarray, c_a: complex, c_phi: complex) -> sp.csr_matrix:
-        o, s = pairs[:, 0], pairs[:, 1]
-        s0, sx, sy, srr, sxs, sys_ = (m[:, None, None] for m in ma)
-        vm, vn = self.free[o][:, :, None, :], self.free[s][:, None, :, :]
-        val = (c_a * (srr - vn[..., 0] * sx - vn[..., 1] * sy - vm[..., 0] * sxs - vm[..., 1] * sys_
-                      + (vm * vn).sum(-1) * s0) + 4 * c_phi * mq[:, None, None])
-        val = val * self.coef[o][:, :, None] * self.coef[s][:, None, :]
-        r = np.broadcast_to(self.row_of[np.maximum(self.fn[o], 0)][:, :, None] * (self.fn[o] >= 0)[:, :, None]
-                            - (self.fn[o] < 0)[:, :, None], val.shape)
-        c = np.broadcast_to(self.fn[s][:, None, :], val.shape)
-        keep = (r >= 0) & (c >= 0)
-        return sp.csr_matrix((val[keep], (r[keep], c[keep])), shape=self.shape)
-
 
 class StaticAssembly:
-    """The near matrices' sparsity, built once per design: every (triangle pair, basis pair)
-    entry's place in a CSR matrix, so each frequency only computes values and sums them into
-    place (``np.bincount``) instead of building and adding sparse matrices."""
+    """The near matrices' sparsity, built once per design: each (triangle pair, basis pair)
+    entry's place in a CSR matrix, so each frequency only computes values (in the pairs'
+    own [pair, 3, 3] layout, without gathers) and sums them into place (``np.bincount``)."""
 
     def __init__(self, prob: Problem, rows: np.ndarray, pair_lists: list[np.ndarray]) -> None:
         a = _BasisAssembler(prob, rows)
-        pairs = np.concatenate(pair_lists)
-        o, s = pairs[:, 0], pairs[:, 1]
-        fo, fs = a.fn[o], a.fn[s]
-        r = np.where(fo >= 0, a.row_of[np.maximum(fo, 0)], -1)[:, :, None] + np.zeros((1, 1, 3), int)
-        c = np.broadcast_to(fs[:, None, :], r.shape)
-        keep = (r >= 0) & (c >= 0)
-        self.keep = keep
-        self.cc = (a.coef[o][:, :, None] * a.coef[s][:, None, :])[keep]
-        self.vm = np.broadcast_to(a.free[o][:, :, None, :], keep.shape + (2,))[keep]
-        self.vn = np.broadcast_to(a.free[s][:, None, :, :], keep.shape + (2,))[keep]
-        self.pair_of = np.broadcast_to(np.arange(len(pairs))[:, None, None], keep.shape)[keep]
-        lin = r[keep].astype(np.int64) * a.shape[1] + c[keep]
-        uniq, self.slot = np.unique(lin, return_inverse=True)
-        self.n_pairs = len(pairs)
+        self.lists = []
+        lins = []
+        for pairs in pair_lists:
+            o, s = pairs[:, 0], pairs[:, 1]
+            fo, fs = a.fn[o], a.fn[s]
+            r = np.where(fo >= 0, a.row_of[np.maximum(fo, 0)], -1)[:, :, None] + np.zeros((1, 1, 3), int)
+            keep = (r >= 0) & (fs[:, None, :] >= 0)
+            cc = a.coef[o][:, :, None] * a.coef[s][:, None, :] * keep  # 0 where no entry
+            self.lists.append((len(pairs), keep, cc, a.free[o][:, :, None, :], a.free[s][:, None, :, :]))
+            lins.append(r[keep].astype(np.int64) * a.shape[1] + np.broadcast_to(fs[:, None, :], keep.shape)[keep])
+        uniq, slot = np.unique(np.concatenate(lins), return_inverse=True)
+        bounds = np.cumsum([0] + [len(x) for x in lins])
+        self.slots = [slot[bounds[i]:bounds[i + 1]] for i in range(len(lins))]
+        self.n_pairs = sum(x[0] for x in self.lists)
         self.shape = a.shape
         self.indices = (uniq % a.shape[1]).astype(np.int32)
         self.indptr = np.searchsorted(uniq // a.shape[1], np.arange(a.shape[0] + 1)).astype(np.int32)
 
-    def values(self, ma: np.ndarray, mq: np.ndarray, c_a: complex, c_phi: complex) -> np.ndarray:
-        """Summed CSR data from triangle-pair moments [6, P] and scalar moments [P]."""
-        p = self.pair_of
-        s0, sx, sy, srr, sxs, sys_ = (m[p] for m in ma)
-        vm, vn = self.vm, self.vn
-        val = self.cc * (c_a * (srr - vn[:, 0] * sx - vn[:, 1] * sy - vm[:, 0] * sxs - vm[:, 1] * sys_
-                                + (vm * vn).sum(-1) * s0) + 4 * c_phi * mq[p])
+    def values(self, which: int, ma: np.ndarray, mq: np.ndarray, c_a: complex, c_phi: complex) -> np.ndarray:
+        """CSR data of list ``which``'s triangle-pair moments [6, P] and scalar moments [P]."""
+        _, keep, cc, vm, vn = self.lists[which]
+        s0, sx, sy, srr, sxs, sys_ = (m[:, None, None] for m in ma)
+        val = cc * (c_a * (srr - vn[..., 0] * sx - vn[..., 1] * sy - vm[..., 0] * sxs - vm[..., 1] * sys_
+                           + (vm * vn).sum(-1) * s0) + 4 * c_phi * mq[:, None, None])
+        val = val[keep]
         n = len(self.indices)
-        return np.bincount(self.slot, val.real, n) + 1j * np.bincount(self.slot, val.imag, n)
+        return np.bincount(self.slots[which], val.real, n) + 1j * np.bincount(self.slots[which], val.imag, n)
 
     def matrix(self, data: np.ndarray) -> sp.csr_matrix:
         return sp.csr_matrix((data, self.indices, self.indptr), shape=self.shape)
@@ -390,13 +400,12 @@ def near_matrices(model: FastModel, freq_hz: float, grid_table: np.ndarray, weig
     asm = model._assembly
     fa, fq = np.concatenate(fill_a, axis=1), np.concatenate(fill_q)
     ga, gq = np.concatenate(grid_a, axis=1), np.concatenate(grid_q)
-    near = asm.values(np.concatenate([fa, corr], axis=1), np.concatenate([fq, corr_q]), c_a, c_phi)
-    grid = asm.values(np.concatenate([ga, np.zeros_like(corr)], axis=1), np.concatenate([gq, np.zeros_like(corr_q)]),
-                      c_a, c_phi)
+    near = asm.values(0, fa, fq, c_a, c_phi) + asm.values(1, corr, corr_q, c_a, c_phi)
+    grid = asm.values(0, ga, gq, c_a, c_phi)
     return asm.matrix(near - grid), asm.matrix(near)
 
 
-SERIES_TOL = 1e-14  # last term of the smooth part's power series, relative to 1
+SERIES_TOL = 1e-13  # last term of the smooth part's power series, relative to 1
 SERIES_HEADROOM = 1.6  # a series built at k holds to 1.6 k (a worker's later, higher frequencies)
 SERIES_FLOOR_HZ = 100e6  # and at least to 100 MHz: one build covers the low band
 
@@ -424,25 +433,24 @@ class NearSeries:
             for sel, rule in ((~close, _Q7), (close, _Q7_TOUCHING)):
                 for start in range(0, int(sel.sum()), 20000 if rule is _Q7 else 4000):
                     pr = pairs[sel][start:start + (20000 if rule is _Q7 else 4000)]
-                    sing, terms = self._terms(mesh, pr, img, rule)
-                    if img and self.scalar_images:
-                        sing, terms = sing[:1], terms[:, :1].copy()
+                    sing, terms = self._terms(mesh, pr, img, rule, scalar=img and self.scalar_images)
                     self.groups.append((img, pr, sing, terms))
                     self.rules.append(rule)
 
-    def _terms(self, mesh, pairs: np.ndarray, image: bool, rule) -> tuple[np.ndarray, np.ndarray]:
+    def _terms(self, mesh, pairs: np.ndarray, image: bool, rule, scalar: bool) -> tuple[np.ndarray, np.ndarray]:
+        """Static singular moments and the series' terms of one group (``scalar``: S0 only)."""
         sing, r, wo, ws, rho, ps = near_geometry(mesh, pairs, image, rule)
         x = self.k_max * float(r.max(initial=0.0))
         n_terms, size = 1, x
         while size > SERIES_TOL:  # x^n / n! for n = 1, 2, ...
             n_terms += 1
             size *= x / n_terms
-        terms = np.empty((n_terms, 6, len(pairs)))
+        terms = np.empty((n_terms, 1 if scalar else 6, len(pairs)))
         power = np.broadcast_to(ws[:, None, :], r.shape).copy()
         for n in range(n_terms):
-            terms[n] = smooth_moments(power, wo, rho, ps)
+            terms[n] = (wo * power.sum(axis=2)).sum(axis=1) if scalar else smooth_moments(power, wo, rho, ps)
             power *= r
-        return sing, terms
+        return (sing[:1] if scalar else sing), terms
 
     def moments(self, k: float):
         """(image, pairs, accurate moments [6, n]) per group at wavenumber ``k``."""
@@ -536,6 +544,7 @@ class FastStats:
 
     iterations: int
     residual: float
+    mirrored: bool  # solved in the mirror class (MirrorSymmetry): the currents have its symmetry
 
 
 def solve_fast(prob: Problem, freq_hz: float, symmetric: bool) -> tuple[Solution, FastStats]:
@@ -569,4 +578,4 @@ def solve_fast(prob: Problem, freq_hz: float, symmetric: bool) -> tuple[Solution
                               "try --method dense")
     i = u @ a
     i_in = complex(np.sum(sign * prob.rwg.length[prob.rwg.feed] * i[prob.rwg.feed]))
-    return Solution(freq_hz, i, i_in, prob.mesh.feed_volts), FastStats(count[0], residual)
+    return Solution(freq_hz, i, i_in, prob.mesh.feed_volts), FastStats(count[0], residual, model.symmetry is not None)

@@ -618,8 +618,13 @@ def solve(prob: Problem, freq_hz: float, symmetry: MirrorSymmetry | None = None)
 
 
 def gain_pattern(prob: Problem, sol: Solution, theta_deg: np.ndarray, phi_deg: np.ndarray,
-                 chunk: int = 400) -> np.ndarray:
-    """Linear power gain G(theta, phi) = 4 pi U / P_in on the grid (theta rows, phi columns)."""
+                 chunk: int = 400, mirrored_currents: bool = False) -> np.ndarray:
+    """Linear power gain G(theta, phi) = 4 pi U / P_in on the grid (theta rows, phi columns).
+
+    ``mirrored_currents``: the currents are in the x-driven mirror class (solved with
+    :class:`MirrorSymmetry`: J_x even and J_y odd in both x and y), so the four images of a
+    first-quadrant point sum to 4 J_x cos(k x s_x) cos(k y s_y) and -4 J_y sin(k x s_x)
+    sin(k y s_y): the same far field from a quarter of the points and half the exponentials."""
     mesh, k = prob.mesh, 2 * np.pi * sol.freq_hz / C0
     pts, w = _points(mesh, _Q7)
     alpha = prob.c1.T @ sol.currents  # J = alpha rho + beta on each triangle
@@ -627,6 +632,9 @@ def gain_pattern(prob: Problem, sol: Solution, theta_deg: np.ndarray, phi_deg: n
     jw = (alpha[:, None, None] * pts[..., :2] + beta[:, None, :]) * w[..., None]  # [T, Q, 2]
     jw = jw.reshape(-1, 2)
     p = pts.reshape(-1, 3)
+    if mirrored_currents:
+        first = (p[:, 0] > 0) & (p[:, 1] > 0)  # every triangle lies in one quadrant (meshes are mirrored)
+        p, jw = p[first], jw[first]
     levels, level = np.unique(np.round(p[:, 2], 9), return_inverse=True)  # flat metal: a few heights
     th, ph = np.meshgrid(np.radians(theta_deg), np.radians(phi_deg), indexing="ij")
     th, ph = th.ravel(), ph.ravel()
@@ -637,8 +645,14 @@ def gain_pattern(prob: Problem, sol: Solution, theta_deg: np.ndarray, phi_deg: n
         sx, sy, cz = np.sin(t_) * np.cos(f_), np.sin(t_) * np.sin(f_), np.cos(t_)
         for lev, z in enumerate(levels):  # exp(jk s.r) = exp(jk (x sx + y sy)) exp(jk z cz)
             on = level == lev
-            horiz = np.exp(1j * k * (np.outer(p[on, 0], sx) + np.outer(p[on, 1], sy)))
-            moment = horiz.T @ jw[on]
+            if mirrored_currents:
+                ex = np.exp(1j * k * np.outer(p[on, 0], sx))
+                ey = np.exp(1j * k * np.outer(p[on, 1], sy))
+                moment = np.stack([4 * (ex.real * ey.real).T @ jw[on, 0],
+                                   -4 * (ex.imag * ey.imag).T @ jw[on, 1]], axis=-1)
+            else:
+                horiz = np.exp(1j * k * (np.outer(p[on, 0], sx) + np.outer(p[on, 1], sy)))
+                moment = horiz.T @ jw[on]
             direct[s:s + chunk] += np.exp(1j * k * z * cz)[:, None] * moment
             if prob.ground != "free":
                 mirrored[s:s + chunk] += np.exp(-1j * k * z * cz)[:, None] * moment

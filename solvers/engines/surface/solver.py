@@ -41,6 +41,22 @@ def check_memory(n_unknowns: int, n_triangles: int, processes: int, label: str, 
                             "--blade-cells, or fewer --workers.")
 
 
+def check_fast_memory(prob: Problem, symmetry: MirrorSymmetry | None, processes: int, label: str) -> None:
+    """Refuse, before any work, a fast solve whose workers would not fit in memory."""
+    from .pfft import memory_estimate
+
+    need = memory_estimate(prob, symmetry) * processes
+    have = available_memory_bytes()
+    if have is not None and need > 0.8 * have:
+        raise SettingsError(f"{label}: the fast solve of {prob.n} unknowns needs about {need / 2**30:.1f} GiB on "
+                            f"{processes} process(es); {have / 2**30:.1f} GiB is available. Use a coarser --mesh, "
+                            "or fewer --workers.")
+
+
+def _soil(design: Design) -> tuple[float, float] | None:
+    return (design.ground.eps_r, design.ground.sigma) if isinstance(design.ground, Soil) else None
+
+
 def solve_frequency(payload: tuple, freq_mhz: float) -> tuple[np.ndarray, dict[str, float]]:
     """Worker job: the gain pattern [91, n_phi] at one frequency, the input impedance and
     the energy balance (radiated / input power: 1 for a lossless model over PEC or in free
@@ -53,17 +69,20 @@ def solve_frequency(payload: tuple, freq_mhz: float) -> tuple[np.ndarray, dict[s
         prob = problem_of(mesh, ground, near_factor, soil)
         sol, stats = solve_fast(prob, freq_mhz * 1e6, symmetric=n_phi == 91)
         extras = {"gmres_iterations": float(stats.iterations), "gmres_residual": stats.residual}
+        mirrored = stats.mirrored
     else:
         prob = Problem(mesh, rwg_basis(mesh), ground, near_factor, soil)
         symmetry = MirrorSymmetry.of(mesh, prob.rwg) if n_phi == 91 else None  # exact, ~4x faster
         sol = solve(prob, freq_mhz * 1e6, symmetry)
+        mirrored = symmetry is not None
     step = FAR_FIELD_STEP
     phis = np.arange(0.0, 91.0 if n_phi == 91 else 360.0, step)
     if ground != "free":
-        g = to_one_degree(gain_pattern(prob, sol, np.arange(0.0, 91.0, step), phis), step, quadrant=n_phi == 91)
+        g = to_one_degree(gain_pattern(prob, sol, np.arange(0.0, 91.0, step), phis, mirrored_currents=mirrored),
+                          step, quadrant=n_phi == 91)
         balance = upper_mean_gain(g) / 2.0  # all the power that is not absorbed goes up
     else:  # free space: half the power goes down, so integrate the whole sphere
-        both = gain_pattern(prob, sol, np.arange(0.0, 181.0, step), phis)
+        both = gain_pattern(prob, sol, np.arange(0.0, 181.0, step), phis, mirrored_currents=mirrored)
         g = to_one_degree(both[: 90 // step + 1], step, quadrant=n_phi == 91)
         below = to_one_degree(both[::-1][: 90 // step + 1], step, quadrant=n_phi == 91)
         balance = (upper_mean_gain(g) + upper_mean_gain(below)) / 2.0
@@ -109,12 +128,15 @@ class SurfaceSolver(FrequencySolver):
             raise SolveError(f"{design.label()}: could not mesh the model ({exc})") from exc
         symmetric = design.plane is None or all(design.plane.mirror_symmetry.values())
         n_phi = 91 if symmetric else 360
-        reduced = symmetric and MirrorSymmetry.of(mesh, rwg) is not None  # as each worker will find it
-        check_memory(rwg.n, len(mesh.tris), max(1, self.workers), design.label(), reduced)
+        symmetry = MirrorSymmetry.of(mesh, rwg) if symmetric else None  # as each worker will find it
+        if self.settings.method == "dense":
+            check_memory(rwg.n, len(mesh.tris), max(1, self.workers), design.label(), symmetry is not None)
+        else:
+            check_fast_memory(Problem(mesh, rwg, design.ground_kind, self.settings.near_factor, _soil(design)),
+                              symmetry, max(1, self.workers), design.label())
         what = design.plane.describe() if design.plane else "blade"
         where = {"pec": "over PEC", "soil": "over soil", "free": "in free space"}[design.ground_kind]
         label = f"{what} {where} ({rwg.n} unknowns)"
         meta = {"n_unknowns": rwg.n, "n_triangles": len(mesh.tris)}
-        soil = (design.ground.eps_r, design.ground.sigma) if isinstance(design.ground, Soil) else None
-        payload = (mesh, design.ground_kind, n_phi, self.settings.near_factor, soil, self.settings.method)
+        payload = (mesh, design.ground_kind, n_phi, self.settings.near_factor, _soil(design), self.settings.method)
         return Plan(solve_frequency, payload, n_phi, meta, label)

@@ -110,3 +110,14 @@ def test_solver_method_is_a_setting_recorded_in_the_beam(tmp_path, monkeypatch):
     assert np.abs(10 * np.log10(beams["fast"].gain[:, up] / beams["dense"].gain[:, up])).max() < 5e-3
     with pytest.raises(Exception, match="method"):
         SurfaceSettings(method="fmm")
+
+
+def test_far_field_from_the_first_quadrant_is_the_whole_far_field():
+    """Currents solved in the mirror class give the same pattern from a quarter of the points."""
+    prob = _problem("soil")
+    sol, stats = pfft.solve_fast(prob, 70e6, symmetric=True)
+    assert stats.mirrored
+    th = np.arange(0.0, 88.0, 3.0)
+    full = gain_pattern(prob, sol, th, th)
+    quarter = gain_pattern(prob, sol, th, th, mirrored_currents=True)
+    assert np.allclose(quarter, full, rtol=1e-10)
