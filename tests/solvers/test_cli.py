@@ -19,3 +19,26 @@ def test_cli_solve_and_fom(tmp_path, capsys, monkeypatch):
     assert main(["solve", "-o", str(out)]) == 2
     assert "needs a ground plane" in capsys.readouterr().err
 
+
+
+def test_default_solve_is_the_surface_engine_and_methods_agree(tmp_path, capsys, monkeypatch):
+    """`groundplane solve` without --engine is the surface engine's fast solve; --method dense
+    is the reference and gives the same beam (a coarse 4 m plate, three frequencies)."""
+    import numpy as np
+
+    from groundplane.beam import Beam
+    from groundplane.cli import main
+
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path / "cache"))
+    common = ["solve", "square", "--side", "4", "--mesh", "1.5", "--blade-cells", "4", "4", "--freqs", "60,70,80",
+              "--workers", "1"]
+    beams = {}
+    for method in ("fast", "dense"):
+        out = tmp_path / f"{method}.npz"
+        assert main([*common, *(["--method", method] if method == "dense" else []), "-o", str(out)]) == 0, \
+            capsys.readouterr().err
+        beams[method] = Beam.load(out)
+    assert beams["fast"].meta["solver"] == "surface" and beams["fast"].meta["mesh"]["method"] == "fast"
+    assert beams["dense"].meta["mesh"]["method"] == "dense"
+    up = beams["fast"].theta_deg <= 80
+    assert np.abs(10 * np.log10(beams["fast"].gain[:, up] / beams["dense"].gain[:, up])).max() < 0.01
