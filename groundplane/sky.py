@@ -252,7 +252,9 @@ def _crc(a: np.ndarray) -> int:
 
 def _read_sky_cache(file: Path, shape: tuple[int, ...]) -> np.ndarray | None:
     """A cached horizon sky if it is whole: right shape, CRC-32 as written, plausible
-    temperatures. Anything else (truncated, overwritten, no checksum) is deleted."""
+    temperatures. Anything else (truncated, overwritten, no checksum) is deleted: an entry
+    whose checksum is missing is never adopted, however plausible its values (a sky scaled
+    x2 is plausible and scored 478.9 mK for 239.5)."""
     check = file.with_suffix(".crc.json")
     if not file.exists():
         return None
@@ -260,9 +262,7 @@ def _read_sky_cache(file: Path, shape: tuple[int, ...]) -> np.ndarray | None:
         t408 = np.load(file, allow_pickle=False)
         ok = (t408.shape == shape and t408.dtype == np.float32 and bool(np.all(np.isfinite(t408)))
               and float(t408.min()) > 0.0 and float(t408.max()) < 1e6)
-        if ok and not check.exists():  # written before checksums: plausible, so adopt it
-            _write_checksum(file, t408)
-        ok = ok and json.loads(check.read_text()).get("crc32") == _crc(t408)
+        ok = ok and check.exists() and json.loads(check.read_text()).get("crc32") == _crc(t408)
     except (OSError, ValueError, TypeError, AttributeError, EOFError):
         ok = False
     if not ok:

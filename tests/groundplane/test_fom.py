@@ -145,7 +145,7 @@ def test_frequency_smoothing_keeps_broadband_structure_and_removes_narrow_spikes
 
 
 
-@pytest.mark.parametrize("damage", ["overwrite", "truncate", "empty", "no-checksum-garbage"])
+@pytest.mark.parametrize("damage", ["overwrite", "truncate", "empty", "no-checksum-garbage", "no-checksum-plausible"])
 def test_damaged_sky_cache_is_recomputed_not_trusted(highband, tmp_path, monkeypatch, damage):
     """An overwritten horizon-sky cache once scored 7e30 mK: every kind of damage is caught
     (CRC-32 beside the entry, shape, plausible kelvins), the entry recomputed, the FoM right."""
@@ -163,6 +163,9 @@ def test_damaged_sky_cache_is_recomputed_not_trusted(highband, tmp_path, monkeyp
         f.write_bytes(raw[: len(raw) // 2])
     elif damage == "empty":
         f.write_bytes(b"")
+    elif damage == "no-checksum-plausible":  # the sky scaled x2, checksum gone: plausible kelvins, wrong
+        np.save(f, 2 * np.load(f))
+        f.with_suffix(".crc.json").unlink()
     else:  # garbage values and the checksum gone
         f.write_bytes(raw[:128] + np.full((len(raw) - 128) // 4, -5.0, np.float32).tobytes())
         f.with_suffix(".crc.json").unlink()
