@@ -166,14 +166,22 @@ def plot_outline(shape: GroundPlane, ax: Any, antenna: BladeDipole | None = EDGE
 
 def export(shape: GroundPlane, path: str | Path, thickness: float = DEFAULT_THICKNESS_M,
            with_antenna: bool = False) -> Path:
-    """Write ``path`` in the format its suffix names: .step/.stp, .stl, .svg, .png."""
+    """Write ``path`` in the format its suffix names: .step/.stp, .stl, .svg, .png. The file
+    is written beside it and renamed into place, so an interrupted export never leaves a
+    truncated file where a good one was (and a symlink at ``path`` is replaced, not followed)."""
+    from .files import atomic_path
+
     suffix = Path(path).suffix.lower()
     if suffix in (".step", ".stp"):
-        return export_step(shape, path, thickness, with_antenna)
-    if with_antenna:
+        writer = lambda tmp: export_step(shape, tmp, thickness, with_antenna)  # noqa: E731
+    elif with_antenna:
         raise UserInputError(f"--with-antenna is only for STEP output, not {suffix}")
-    if suffix == ".stl":
-        return export_stl(shape, path, thickness)
-    if suffix in (".svg", ".png"):
-        return draw_outline(shape, path)
-    raise UserInputError(f"{path}: unknown output format '{suffix}'; use .step, .stl, .svg or .png")
+    elif suffix == ".stl":
+        writer = lambda tmp: export_stl(shape, tmp, thickness)  # noqa: E731
+    elif suffix in (".svg", ".png"):
+        writer = lambda tmp: draw_outline(shape, tmp)  # noqa: E731
+    else:
+        raise UserInputError(f"{path}: unknown output format '{suffix}'; use .step, .stl, .svg or .png")
+    with atomic_path(path, suffix=".tmp" + suffix) as tmp:
+        writer(tmp)
+    return Path(path)

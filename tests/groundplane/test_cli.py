@@ -1,5 +1,6 @@
 """The Figure of Merit: fast path vs an independent integration, and physics sanity checks."""
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -167,3 +168,32 @@ def test_fom_never_imports_an_engine():
                                                                      "dense", "-o", "b.npz"])],
                            capture_output=True, text=True, check=True)
     assert "solvers.engines.surface" in solve.stdout and "solvers.engines.nec" in solve.stdout
+
+
+@pytest.mark.parametrize("suffix", [".step", ".stl", ".svg"])
+def test_export_replaces_atomically_keeps_a_good_file_on_failure_and_replaces_a_symlink(tmp_path, monkeypatch,
+                                                                                        suffix):
+    """A failed or interrupted export leaves the good file it would have replaced; a symlink
+    at -o is replaced by the file, its target left alone (as convert does)."""
+    from groundplane import cad
+    from groundplane.cli import main
+
+    out = tmp_path / f"plane{suffix}"
+    assert main(["export", "--preset", "square-10", "-o", str(out)]) == 0
+    good = out.read_bytes()
+    assert len(good) > 100
+
+    def broken(shape, path, *a, **k):  # writes half a file, then dies
+        Path(path).write_bytes(good[: len(good) // 2])
+        raise OSError("disk full")
+
+    monkeypatch.setattr(cad, {".step": "export_step", ".stl": "export_stl", ".svg": "draw_outline"}[suffix], broken)
+    with pytest.raises(OSError, match="disk full"):
+        main(["export", "--preset", "square-20", "-o", str(out)])
+    assert out.read_bytes() == good and not list(tmp_path.glob("*.tmp*"))
+    monkeypatch.undo()
+    target, link = tmp_path / "target.txt", tmp_path / f"link{suffix}"
+    target.write_text("keep me")
+    link.symlink_to(target)
+    assert main(["export", "--preset", "square-10", "-o", str(link)]) == 0
+    assert not link.is_symlink() and target.read_text() == "keep me" and link.stat().st_size > 100
