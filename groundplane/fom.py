@@ -8,6 +8,7 @@ RMS of the residuals over the fit band, per LST and averaged over LST.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
@@ -39,6 +40,10 @@ class Absorption:
         return -self.amplitude_k * (1 - np.exp(-self.tau * np.exp(b))) / (1 - np.exp(-self.tau))
 
 
+MAX_LSTS = 1440  # every minute of LST: the horizon-sky product grows as LSTs x directions
+MAX_BETA = 10.0  # sky spectral indices are 2-3; far outside, (nu/408)^-beta over- or underflows
+
+
 @dataclass(frozen=True)
 class FomSettings:
     """Everything the FoM depends on besides the beam. Defaults are the paper's."""
@@ -67,8 +72,15 @@ class FomSettings:
             raise SettingsError(f"fit band must be 0 < lo < hi MHz, got {self.fit_band_mhz}")
         if self.n_terms < 1:
             raise SettingsError(f"n_terms must be >= 1, got {self.n_terms}")
-        if self.n_lst < 1:
-            raise SettingsError(f"n_lst must be >= 1, got {self.n_lst}")
+        if not 1 <= self.n_lst <= MAX_LSTS:
+            raise SettingsError(f"--n-lst {self.n_lst}: must be 1-{MAX_LSTS} (every minute of LST at most; the paper "
+                                "scores 360, every 4 min)")
+        if not (math.isfinite(self.nu0_mhz) and self.nu0_mhz > 0):
+            raise SettingsError(f"--nu0 {self.nu0_mhz:g}: the LinLog reference frequency must be a positive number "
+                                "of MHz")
+        if not (math.isfinite(self.beta) and abs(self.beta) <= MAX_BETA):
+            raise SettingsError(f"--beta {self.beta:g}: a sky spectral index is a few (the paper's 2.55); "
+                                f"|beta| <= {MAX_BETA:g} is accepted")
         if self.lst_bin_hours < 0:
             raise SettingsError(f"--lst-bin {self.lst_bin_hours:g} h must be >= 0 (0: no binning)")
         if self.lst_bin_hours:

@@ -174,6 +174,16 @@ def _die_with_parent(parent_pid: int) -> None:
     threading.Thread(target=watch, daemon=True, name="die-with-parent").start()
 
 
+def usable_workers(workers: int, jobs: int) -> int:
+    """Worker processes worth starting: no more than the jobs or the machine's cores (each
+    worker runs one BLAS thread); says so on stderr when it caps what was asked."""
+    cores = os.cpu_count() or 1
+    n = max(1, min(workers, jobs, cores))
+    if workers > cores:
+        print(f"--workers {workers}: this machine has {cores} cores; starting {n} worker process(es)", file=sys.stderr)
+    return n
+
+
 def process_pool(workers: int) -> ProcessPoolExecutor:
     """Spawned worker processes (engines bundle their own OpenMP runtimes, which must not
     share a process with healpy's) that die with this process."""
@@ -362,7 +372,7 @@ class FrequencySolver:
                 bar.close()
 
     def _attempt(self, plan: Plan, todo: list[float]):
-        pool = process_pool(self.workers) if self.workers >= 1 and todo else None
+        pool = process_pool(usable_workers(self.workers, len(todo))) if self.workers >= 1 and todo else None
         jobs = [(plan.job, plan.payload, f) for f in todo]
         try:
             yield from (pool.map(_timed, jobs) if pool else map(_timed, jobs))

@@ -229,3 +229,29 @@ def test_an_unbinned_result_rebins_without_a_new_sky_product():
     assert np.allclose(rebinned.fom, direct.fom) and np.allclose(rebinned.lst_hours, direct.lst_hours)
     with pytest.raises(Exception, match="already in 4 h"):
         rebinned.in_lst_bins(2)
+
+
+@pytest.mark.parametrize("bad, match", [(dict(nu0_mhz=0.0), "--nu0 0"), (dict(nu0_mhz=-75.0), "--nu0 -75"),
+                                        (dict(beta=1e6), "--beta 1e"), (dict(n_lst=1_000_000), "--n-lst 1000000")])
+def test_impossible_fom_settings_are_refused_by_name(bad, match):
+    """These once ended in LAPACK noise and a LinAlgError (beta, nu0) or ran silently (n_lst)."""
+    with pytest.raises(Exception, match=match):
+        FomSettings(lst_bin_hours=0.0, **bad)
+
+
+def test_a_typo_d_frequency_step_is_refused_before_any_solve():
+    from groundplane.options import parse_freqs
+
+    with pytest.raises(Exception, match="not a band anyone solves"):
+        parse_freqs("40:99000:1")
+    assert len(parse_freqs("40:100:0.25")) == 241
+
+
+def test_workers_are_capped_at_the_cores_and_say_so(capsys):
+    import os
+
+    from solvers.engines.base import usable_workers
+
+    cores = os.cpu_count() or 1
+    assert usable_workers(50, 100) == cores and "--workers 50" in capsys.readouterr().err
+    assert usable_workers(2, 1) == 1 and usable_workers(1, 10) == 1
