@@ -11,7 +11,8 @@ from groundplane.beam import Beam, BeamFormatError
 
 _ANGLE_DECIMALS = 6
 UNIT_SCALE_TO_MHZ = {"ghz": 1e3, "mhz": 1.0, "khz": 1e-3, "hz": 1e-6}
-PLAUSIBLE_MHZ = (0.1, 1e5)  # 100 kHz - 100 GHz: outside it, a unit is wrong (MHz read as Hz ...)
+PLAUSIBLE_MHZ = (1.0, 2000.0)  # the toolkit's band (21-cm experiments observe 40-200 MHz): outside it a unit is
+# wrong (an HFSS 'Freq [GHz]' column holding MHz values reads as 40000-100000 MHz, which 100 GHz let through)
 
 
 def check_frequency(f_mhz: float, where_: str) -> float:

@@ -198,7 +198,7 @@ def read_edges_table(path: str | Path, n_azimuth: int = 360) -> Beam:
             m = _EDGES_HEADER.match(line)
             if m:
                 close(lineno)
-                f_cur, rows, start = float(m.group(1)), [], lineno
+                f_cur, rows, start = check_frequency(float(m.group(1)), where(path, lineno)), [], lineno
                 continue
             if line.startswith("#"):
                 cols = line.lstrip("#").split()
@@ -217,6 +217,8 @@ def read_edges_table(path: str | Path, n_azimuth: int = 360) -> Beam:
                 raise BeamFormatError(f"{where(path, lineno)}: expected a row starting 'az N', got '{parts[0]}'")
             n_el = elev.size if elev is not None else 91
             vals = _float_row(parts[1:], path, lineno, 1 + n_el)
+            if not np.isfinite(vals[0]) or vals[0] != int(vals[0]):
+                raise BeamFormatError(f"{where(path, lineno)}: azimuth row number '{parts[1]}' is not a whole number")
             if int(vals[0]) != len(rows):
                 raise BeamFormatError(
                     f"{where(path, lineno)}: azimuth row {int(vals[0])} out of order, expected {len(rows)}"

@@ -21,7 +21,7 @@ import numpy as np
 from groundplane.beam import Beam, BeamFormatError
 
 from . import BeamFormat, head_lines, register_format
-from ._grid import UNIT_SCALE_TO_MHZ, assemble, db_to_linear, samples_to_grid, where
+from ._grid import UNIT_SCALE_TO_MHZ, assemble, check_frequency, db_to_linear, samples_to_grid, where
 
 _QUANTITIES = ("realizedgaintotal", "gaintotal", "dirtotal")
 _HEAD = re.compile(r"^\s*([^\[]+?)\s*\[([^\]]*)\](.*)$")
@@ -97,6 +97,8 @@ def read_hfss(path: str | Path) -> Beam:
                 ])
             except ValueError:
                 raise BeamFormatError(f"{where(path, lineno)}: not a number in {rec}") from None
+            if i_freq is not None and (len(rows) == 1 or rows[-1][0] != rows[-2][0]):
+                check_frequency(rows[-1][0], where(path, lineno))  # each new frequency, with its line
     if not rows:
         raise BeamFormatError(f"{path}: header but no data rows")
     a = np.asarray(rows)

@@ -99,3 +99,24 @@ def test_one_quadrant_cannot_be_scored():
     with pytest.raises(ValueError, match="full circle"):
         figure_of_merit(load_beam(quadrant_paths()[0]))
 
+
+
+def test_edges_table_units_and_azimuth_numbers_are_checked_with_their_line(tmp_path):
+    """'#FREQUENCY 80000000 MHz' (Hz written under MHz) and an azimuth row numbered nan or inf
+    were accepted or crashed; each is refused naming its line."""
+    lines = shared_file("edges_highband_feko_gain_db.txt").read_text().splitlines()
+    p = tmp_path / "t.txt"
+    head = next(i for i, ln in enumerate(lines) if ln.upper().startswith("#FREQUENCY"))
+    bad = list(lines[:362])
+    bad[head] = "#FREQUENCY 80000000 MHz"
+    p.write_text("\n".join(bad))
+    with pytest.raises(BeamFormatError, match=rf"t\.txt:{head + 1}: implausible frequency 8e\+07 MHz"):
+        load_beam(p)
+    row = next(i for i, ln in enumerate(lines) if ln.startswith("az"))
+    for token in ("nan", "inf", "1.5"):
+        bad = list(lines[:362])
+        parts = bad[row].split()
+        bad[row] = " ".join([parts[0], token, *parts[2:]])
+        p.write_text("\n".join(bad))
+        with pytest.raises(BeamFormatError, match=rf"t\.txt:{row + 1}: azimuth row number"):
+            load_beam(p)

@@ -57,3 +57,12 @@ def test_feko_frequency_in_mhz_instead_of_hz_names_the_line(tmp_path):
     p.write_text(src.read_text().replace("#Frequency: 4.00000000E+07", "#Frequency: 40"))
     with pytest.raises(BeamFormatError, match=r"q\.ffe:4: implausible frequency 4e-05 MHz"):
         load_beam(p)
+
+
+def test_a_ghz_column_holding_mhz_values_is_refused_with_its_line(tmp_path):
+    """'Freq [GHz]' over values written in MHz read as 50000-75000 MHz and were scored."""
+    lines = (DATA / "hfss_gain.csv").read_text().splitlines()
+    p = tmp_path / "h.csv"
+    p.write_text("\n".join([lines[0].replace("Freq [MHz]", "Freq [GHz]")] + lines[1:]))
+    with pytest.raises(BeamFormatError, match=r"h\.csv:2: implausible frequency 50000 MHz"):
+        load_beam(p)
