@@ -28,6 +28,17 @@ _HEAD = re.compile(r"^\s*([^\[]+?)\s*\[([^\]]*)\](.*)$")
 _FREQ_QUAL = re.compile(r"Freq\s*=\s*'([0-9.eE+-]+)\s*(GHz|MHz|kHz|Hz)'", re.IGNORECASE)
 
 
+def _gain_column(names: list[str], header: list[str], path: Path) -> tuple[int, bool]:
+    """(index, in dB) of the first gain quantity HFSS wrote, in order of preference."""
+    for q in _QUANTITIES:
+        for i, n in enumerate(names):
+            bare = n.replace(" ", "")
+            if bare == f"db({q})" or bare == q:
+                return i, bare.startswith("db(")
+    raise BeamFormatError(f"{where(path, 1)}: no gain column (dB(GainTotal), GainTotal, dB(RealizedGainTotal), "
+                          f"dB(DirTotal), ...) in {header}")
+
+
 def read_hfss(path: str | Path) -> Beam:
     """One HFSS far-field CSV (any number of frequencies)."""
     path = Path(path)
@@ -51,20 +62,7 @@ def read_hfss(path: str | Path) -> Beam:
             raise BeamFormatError(
                 f"{where(path, 1)}: expected 'Theta [deg]' and 'Phi [deg]' columns in the HFSS header, got {header}"
             )
-        i_gain, is_db = None, False
-        for q in _QUANTITIES:
-            for i, n in enumerate(names):
-                bare = n.replace(" ", "")
-                if bare == f"db({q})" or bare == q:
-                    i_gain, is_db = i, bare.startswith("db(")
-                    break
-            if i_gain is not None:
-                break
-        if i_gain is None:
-            raise BeamFormatError(
-                f"{where(path, 1)}: no gain column (dB(GainTotal), GainTotal, dB(RealizedGainTotal), "
-                f"dB(DirTotal), ...) in {header}"
-            )
+        i_gain, is_db = _gain_column(names, header, path)
         fixed_freq = None
         if i_freq is None:
             m = _FREQ_QUAL.search(parsed[i_gain][2])

@@ -255,3 +255,17 @@ def test_workers_are_capped_at_the_cores_and_say_so(capsys):
     cores = os.cpu_count() or 1
     assert usable_workers(50, 100) == cores and "--workers 50" in capsys.readouterr().err
     assert usable_workers(2, 1) == 1 and usable_workers(1, 10) == 1
+
+
+def test_thin_or_gappy_spectra_are_refused_not_scored():
+    """A beam with 61-89 MHz removed scored 83.1 mK, one sampled every 7 MHz 55.2 mK, for a
+    239.5 mK beam: each is refused, naming the hole or the count; 2 MHz steps still score."""
+    from groundplane.fom import fit_band_mask
+
+    with pytest.raises(Exception, match="no frequency between 60 and 90 MHz"):
+        fit_band_mask(np.r_[np.arange(40.0, 61.0), np.arange(90.0, 101.0)], (55.0, 97.0), 5)
+    with pytest.raises(Exception, match="holds 6 .* needs at least 10"):
+        fit_band_mask(np.arange(40.0, 101.0, 7.0), (55.0, 97.0), 5)
+    with pytest.raises(Exception, match="55-97 MHz missing"):  # not '40-97': the band starts at 55
+        fit_band_mask(np.array([40.0]), (55.0, 97.0), 5)
+    assert fit_band_mask(np.arange(40.0, 101.0, 2.0), (55.0, 97.0), 5).sum() == 21

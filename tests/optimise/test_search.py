@@ -13,7 +13,7 @@ from optimise.search import family, optimisable, optimise
 CHEAP = """
 [solver]
 mesh = 1.0
-freqs = "55:97:6"
+freqs = "55:97:4"
 [fom]
 n_lst = 24
 """

@@ -18,7 +18,7 @@ from tests.conftest import EXAMPLE_BEAM, ROOT
 CHEAP = """
 [solver]
 mesh = 1.0
-freqs = "55:97:6"
+freqs = "55:97:4"
 [fom]
 n_lst = 24
 """
@@ -44,7 +44,7 @@ tooth_height = 1
     cands, invalid, settings = load_config(cfg)
     assert [c.name for c in cands] == ["square-10", "sawtooth-3-1-1.5-1", "sawtooth-4-1-1.5-1"]
     assert len(invalid) == 2 and "use teeth_per_side" in invalid[0]["error"]
-    assert settings.solver.spacing == 1.0 and len(settings.freqs_mhz) == 8
+    assert settings.solver.spacing == 1.0 and len(settings.freqs_mhz) == 11
 
 @pytest.mark.parametrize("body,msg", [
     ("[[candidate]]\nshape = 'hexagon'\n", "unknown shape"),
@@ -83,7 +83,7 @@ def test_sweep_resumes_after_kill_9(tmp_path):
 
 def test_sweep_ranks_a_beam_file_with_solved_candidates(tmp_path, monkeypatch):
     monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path / "cache"))
-    f = np.arange(55.0, 98.0, 6.0)
+    f = np.arange(55.0, 98.0, 4.0)
     hb = Beam.load(EXAMPLE_BEAM)
     fake = Beam(f, hb.theta_deg, hb.phi_deg, np.repeat(hb.gain[:1], f.size, axis=0) * (1 + 0.01 * np.sin(f / 3))[:, None, None])
     fake.save(tmp_path / "export.npz")

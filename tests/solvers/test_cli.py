@@ -9,7 +9,7 @@ def test_cli_solve_and_fom(tmp_path, capsys, monkeypatch):
 
     monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path / "cache"))
     out, deck = tmp_path / "b.npz", tmp_path / "b.nec"
-    rc = main(["solve", "--engine", "nec", "square", "--side", "3", "--mesh", "1.0", "--freqs", "55:97:6",
+    rc = main(["solve", "--engine", "nec", "square", "--side", "3", "--mesh", "1.0", "--freqs", "55:97:4",
                "--workers", "1", "-o", str(out), "--deck", str(deck)])
     assert rc == 0, capsys.readouterr().err
     text = deck.read_text()

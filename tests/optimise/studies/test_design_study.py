@@ -12,7 +12,7 @@ from tests.conftest import EXAMPLE_BEAM
 CHEAP = """
 [solver]
 mesh = 1.0
-freqs = "55:97:6"
+freqs = "55:97:4"
 [fom]
 n_lst = 24
 """
@@ -28,7 +28,7 @@ def test_design_study_table_conclusions_compare_mesh_and_retry(tmp_path, monkeyp
     from optimise.studies.design_study import DESIGN_STUDY, design_study
     from solvers.engines.nec import NecSettings
 
-    f = np.arange(55.0, 98.0, 6.0)
+    f = np.arange(55.0, 98.0, 4.0)
     hb = Beam.load(EXAMPLE_BEAM)
     broken = {"sawtooth-15-12"}
 

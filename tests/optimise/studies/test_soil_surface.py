@@ -16,7 +16,7 @@ def test_soil_surface_study_writes_its_table_reading_and_figure(tmp_path, monkey
             Row("square-10", "surface", 2.5, 0.02, "design", cells),
             Row("square-20", "surface", 2.5, 0.02, "design", cells),
             Row("square-20", "surface", 2.5, 0.01, "check", cells)]
-    soil_surface(tmp_path, "test", workers=1, todo=todo, freqs=np.arange(55.0, 98.0, 6.0))
+    soil_surface(tmp_path, "test", workers=1, todo=todo, freqs=np.arange(55.0, 98.0, 4.0))
     rows = list(csv.DictReader((tmp_path / "soil_surface.csv").open()))
     assert [r["engine"] for r in rows] == ["nec"] + ["surface"] * 5
     for r in rows:
