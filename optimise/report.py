@@ -63,8 +63,8 @@ def write_report(rows: list[dict[str, Any]], out_dir: str | Path, title: str = "
     return paths
 
 
-MESH_NOTE = ("Solved FoMs depend on the model's mesh: a coarse plate grid biases the FoM (see "
-             "results/mesh_convergence.md); compare candidates only at one mesh, and re-solve the best at a finer one.")
+MESH_NOTE = ("Solved FoMs depend on the model's mesh (`groundplane study mesh-convergence` measures how much): "
+             "compare candidates only at one mesh, and re-solve the best at a finer one.")
 
 
 def _params(r: dict[str, Any]) -> str:

@@ -61,10 +61,12 @@ def _mesh_section(out: Path, settings: EvalSettings) -> str:
     path = out / "mesh_convergence.csv"
     if not path.exists():
         return ""
-    rows = []
-    for r in csv.DictReader(path.open()):
-        fom = float(r["fom_mk"]) if r["fom_mk"] else None
-        rows.append({"preset": r["preset"], "mesh_m": float(r["mesh_m"]), "fom_mk": fom})
+    with path.open() as fh:
+        found = list(csv.DictReader(fh))
+    if not found or not {"preset", "mesh_m", "fom_mk"} <= set(found[0]):
+        return ""  # another study's file of that name (the NEC v1 convergence study wrote one)
+    rows = [{"preset": r["preset"], "mesh_m": float(r["mesh_m"]), "fom_mk": float(r["fom_mk"]) if r["fom_mk"] else None}
+            for r in found]
     mesh, verdict = chosen_mesh(rows)
     here = settings.spacing
     same = (f"This study's mesh ({here:g} m) is the one the rule picks." if mesh is not None and here == mesh

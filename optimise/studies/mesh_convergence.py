@@ -26,7 +26,7 @@ def convergence_rows(settings: EvalSettings, out: Path, presets=PRESETS, meshes=
     rows = []
     for mesh in sorted(meshes, reverse=True):
         at = settings.with_spacing(mesh)
-        done = run_sweep([Candidate(p, plane=preset(p)) for p in presets], at, out / f"runs_{mesh:g}",
+        done = run_sweep([Candidate(p, plane=preset(p)) for p in presets], at, out / "mesh_convergence_runs" / f"{mesh:g}",
                          progress=progress, retry_failed=True)
         by_name = {r["name"]: r for r in done}
         for p in presets:

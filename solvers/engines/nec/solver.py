@@ -9,8 +9,8 @@ above a plate), or in free space (GN -1; the cross-engine case), as a Beam.
   known (lossless: mean gain over the upper hemisphere = 2), and the gain is divided by
   kappa(f) = that mean / 2. This assumes the feed-model error is the same over soil as
   over PEC (same blade mesh, same feed); kappa is recorded in the beam metadata.
-* The wire grid leaks power into the soil and its spacing biases the FoM: see
-  ``groundplane study mesh-convergence`` and ``results/mesh_convergence.md``.
+* The wire grid leaks power into the soil and its spacing biases the FoM:
+  ``groundplane study mesh-convergence --engine nec`` measures by how much.
 * Far field: theta 0-90, phi 0-359 at 1 deg, computed by NEC every ``far_field_step``
   deg (3 by default) and interpolated bicubically (the 1-deg far-field sum cost as much as
   fill + LU). For a candidate mirror-symmetric about both axes only phi 0-90 is computed
