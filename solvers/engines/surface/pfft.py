@@ -44,10 +44,9 @@ from .rwg import (
     Problem,
     Solution,
     _block_moments,
-    _far_rule_pairs,
     _moments,
+    _near_corrections,
     _points,
-    _reflected_near,
     feed_signs,
     near_geometry,
     rwg_basis,
@@ -394,7 +393,7 @@ def near_matrices(model: FastModel, freq_hz: float, grid_table: np.ndarray, weig
     for start in range(0, len(model.pairs), chunk):
         fa, fq, ga, gq = _pair_moments(model, model.pairs[start:start + chunk], k, weights, kernels, grid_table)
         fill_a.append(fa), fill_q.append(fq), grid_a.append(ga), grid_q.append(gq)
-    cpairs, corr, corr_q = near_corrections(prob, model.series(k), k, weights, kernels)
+    cpairs, corr, corr_q = _near_corrections(prob, k, None, weights, kernels, groups=model.series(k).moments(k))
     if model._assembly is None or model._assembly.n_pairs != len(model.pairs) + len(cpairs):
         model._assembly = StaticAssembly(prob, model.rows, [model.pairs, cpairs])
     asm = model._assembly
@@ -463,26 +462,6 @@ class NearSeries:
             if len(moments) == 1:  # scalar-only image group: the vector moments are never used (weight 0)
                 moments = np.concatenate([moments, np.zeros((5, moments.shape[1]), complex)])
             yield img, pairs, moments
-
-
-def near_corrections(prob: Problem, series: NearSeries, k: float, weights, kernels):
-    """``rwg._near_corrections`` with the accurate moments from ``series`` (same pairs,
-    same result to rounding)."""
-    all_pairs, all_a, all_q = [], [], []
-    for img, pr, accurate in series.moments(k):
-        wa, wq = weights if img else (1.0, 1.0)
-        diff = accurate - _far_rule_pairs(prob.mesh, pr, k, img)
-        all_pairs.append(pr)
-        all_a.append(wa * diff)
-        all_q.append(wq * diff[0])
-        if img and kernels is not None:
-            ca, cq = _reflected_near(prob.mesh, pr, kernels)
-            all_pairs.append(pr)
-            all_a.append(ca)
-            all_q.append(cq)
-    if not all_pairs:
-        return np.zeros((0, 2), int), np.zeros((6, 0), complex), np.zeros(0, complex)
-    return np.concatenate(all_pairs), np.concatenate(all_a, axis=1), np.concatenate(all_q)
 
 
 class FastOperator:

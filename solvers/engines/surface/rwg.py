@@ -423,26 +423,34 @@ def _reflected_near(mesh: TriMesh, pairs: np.ndarray, kernels: ReflectedKernels)
     return acc_a - far_a, acc_q - far_q
 
 
-def _near_corrections(prob: Problem, k: float, obs: np.ndarray, weights: tuple | None,
-                      kernels: ReflectedKernels | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(pairs [n, 2], vector-potential corrections [6, n], scalar corrections [n]): accurate
-    minus fill moments of the near pairs whose observation triangle is in ``obs`` (a mask):
-    direct, image (with its ``weights``) and, over soil, the reflected kernels."""
-    all_pairs, all_a, all_q = [], [], []
+def near_groups(prob: Problem, k: float, obs: np.ndarray):
+    """(image, pairs, accurate moments [6, n]) of the near pairs whose observation triangle is
+    in ``obs`` (a mask), in chunks: direct, then image."""
     for img, pairs in zip((False, True), prob.near):
-        wa, wq = weights if img else (1.0, 1.0)
         pairs = pairs[obs[pairs[:, 0]]]
         for start in range(0, len(pairs), 20000):
             pr = pairs[start:start + 20000]
-            diff = _near_moments(prob.mesh, pr, k, img) - _far_rule_pairs(prob.mesh, pr, k, img)
+            yield img, pr, _near_moments(prob.mesh, pr, k, img)
+
+
+def _near_corrections(prob: Problem, k: float, obs: np.ndarray | None, weights: tuple | None,
+                      kernels: ReflectedKernels | None, groups=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(pairs [n, 2], vector-potential corrections [6, n], scalar corrections [n]): accurate
+    minus fill moments of the near pairs whose observation triangle is in ``obs`` (a mask):
+    direct, image (with its ``weights``) and, over soil, the reflected kernels. ``groups``
+    gives the accurate moments another way (the fast solve's series), as :func:`near_groups`."""
+    all_pairs, all_a, all_q = [], [], []
+    for img, pr, accurate in (near_groups(prob, k, obs) if groups is None else groups):
+        wa, wq = weights if img else (1.0, 1.0)
+        diff = accurate - _far_rule_pairs(prob.mesh, pr, k, img)
+        all_pairs.append(pr)
+        all_a.append(wa * diff)
+        all_q.append(wq * diff[0])
+        if img and kernels is not None:
+            ca, cq = _reflected_near(prob.mesh, pr, kernels)
             all_pairs.append(pr)
-            all_a.append(wa * diff)
-            all_q.append(wq * diff[0])
-            if img and kernels is not None:
-                ca, cq = _reflected_near(prob.mesh, pr, kernels)
-                all_pairs.append(pr)
-                all_a.append(ca)
-                all_q.append(cq)
+            all_a.append(ca)
+            all_q.append(cq)
     if not all_pairs:
         return np.zeros((0, 2), int), np.zeros((6, 0), complex), np.zeros(0, complex)
     return np.concatenate(all_pairs), np.concatenate(all_a, axis=1), np.concatenate(all_q)
