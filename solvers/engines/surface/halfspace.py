@@ -81,7 +81,7 @@ TAIL_RHO = 2.0  # m: the spectral tail beyond K_SPLIT is integrated for rho up t
 def _split_point(k0: float, eps: complex) -> float:
     """Where the spectral integral's tail starts: beyond it R_TE and R_q - K_q have decayed
     like (k_soil / krho)^2, so the tail adds an endpoint term ~ K^-2.5 / rho at rho >= TAIL_RHO:
-    below 1e-6 of the table's largest value at 40-100 MHz on MRO soil (test_rwg); at smaller
+    below 1e-6 of the table's largest value at 40-100 MHz on MRO soil (test_pfft); at smaller
     rho it is integrated in full."""
     return max(150.0 * k0, 10.0 * abs(np.sqrt(eps)) * k0)
 
@@ -93,7 +93,7 @@ def spectral_nodes(k0: float, eps: complex, zeta: float, rho_max: float,
     the last node (40 e-folds, at least 60 k0), and an 8-point panel spans at most one period
     of J0(krho rho_max) (agrees with panels 4x narrower to 1e-10 at rho 10-44 m). Nodes stop
     at ``k_stop`` (see :func:`tail_nodes`)."""
-    width = min(2 * np.pi / max(rho_max, 1e-3), 0.1 * k0)
+    width = _panel_width(k0, rho_max)
     # below k0: krho = k0 sin t, krho dkrho/(j kz0) = -j krho dt
     n1 = max(8, int(np.ceil(k0 / width)))
     t, wt = _gauss_panels(np.linspace(0.0, np.pi / 2, n1 + 1), order)
@@ -104,9 +104,7 @@ def spectral_nodes(k0: float, eps: complex, zeta: float, rho_max: float,
     u, wu = _gauss_panels(np.linspace(0.0, u_end, n2 + 1), order)
     kr2, w2 = k0 * np.cosh(u), k0 * np.cosh(u) * wu
     # the rest, straight: panels of the J0 width, wider where exp(-krho zeta) has killed it
-    k_end = min(_spectral_end(k0, eps, zeta), k_stop)
-    edges = np.arange(1.5 * k0, k_end + width, width)
-    kr3, wk = _gauss_panels(edges, order)
+    kr3, wk = _gauss_panels(_straight_edges(k0, eps, zeta, width, k_stop), order)
     w3 = kr3 / (1j * _kz(k0 ** 2, kr3)) * wk
     return np.concatenate([kr1, kr2, kr3]), np.concatenate([w1, w2, w3])
 
@@ -155,19 +153,22 @@ def reflected_integrals(rho: np.ndarray, k0: float, eps: complex, zeta: float,
     kr, w = spectral_nodes(k0, eps, zeta, rho_max, k_stop=k_split)
     out = _integrate(rho, kr, w, k0, eps, zeta, chunk)
     if np.isfinite(k_split):  # the tail starts where the body's last panel ends
-        kr_t, w_t = tail_nodes(k0, eps, zeta, _gauss_end(k0, eps, zeta, rho_max, k_split), TAIL_RHO)
+        body_end = _straight_edges(k0, eps, zeta, _panel_width(k0, rho_max), k_split)[-1]
+        kr_t, w_t = tail_nodes(k0, eps, zeta, float(body_end), TAIL_RHO)
     if np.isfinite(k_split) and len(kr_t):
         near = rho <= TAIL_RHO
         out[near] += _integrate(rho[near], kr_t, w_t, k0, eps, zeta, chunk)
     return out[:, 0] + 1j * out[:, 1], out[:, 2] + 1j * out[:, 3]
 
 
-def _gauss_end(k0: float, eps: complex, zeta: float, rho_max: float, k_stop: float) -> float:
-    """The upper edge of the last straight panel of :func:`spectral_nodes` stopped at ``k_stop``."""
-    width = min(2 * np.pi / max(rho_max, 1e-3), 0.1 * k0)
-    k_end = min(_spectral_end(k0, eps, zeta), k_stop)
-    edges = np.arange(1.5 * k0, k_end + width, width)
-    return float(edges[-1])
+def _panel_width(k0: float, rho_max: float) -> float:
+    """An 8-point panel spans at most one period of J0(krho rho_max) (and a tenth of k0)."""
+    return min(2 * np.pi / max(rho_max, 1e-3), 0.1 * k0)
+
+
+def _straight_edges(k0: float, eps: complex, zeta: float, width: float, k_stop: float = np.inf) -> np.ndarray:
+    """Panel edges of the straight part of :func:`spectral_nodes`, from 1.5 k0 to its end."""
+    return np.arange(1.5 * k0, min(_spectral_end(k0, eps, zeta), k_stop) + width, width)
 
 
 @dataclass

@@ -104,6 +104,7 @@ class FastModel:
     level: np.ndarray  # [T] layer of each triangle
     project: sp.csr_matrix  # [n_levels * nx * ny, 3T]: point sources -> grid nodes
     points: tuple[np.ndarray, np.ndarray]  # 3-point rule [T, 3, 3], weights [T, 3]
+    stencils: tuple[np.ndarray, ...]  # each point's base nodes ix, iy [T, 3] and weights wx, wy [T, 3, 4]
     pairs: np.ndarray  # [P, 2] (obs, src) triangle pairs to precorrect (obs in the rows' triangles)
     _series: "NearSeries | None" = None
     _assembly: "StaticAssembly | None" = None
@@ -111,10 +112,7 @@ class FastModel:
     def series(self, k: float) -> "NearSeries":
         """The engine's near moments as a series in k, (re)built when ``k`` is beyond it."""
         if self._series is None or k > self._series.k_max:
-            obs = np.zeros(len(self.prob.mesh.tris), bool)
-            obs[self.prob.rwg.plus[self.rows]] = True
-            obs[self.prob.rwg.minus[self.rows]] = True
-            self._series = NearSeries(self.prob, obs, k)
+            self._series = NearSeries(self.prob, row_triangles(self.prob, self.rows), k)
         return self._series
 
     @property
@@ -123,6 +121,14 @@ class FastModel:
         import scipy.fft
 
         return scipy.fft.next_fast_len(2 * self.grid.nx), scipy.fft.next_fast_len(2 * self.grid.ny)
+
+
+def row_triangles(prob: Problem, rows: np.ndarray) -> np.ndarray:
+    """Mask [T] of the triangles that carry the testing functions ``rows``."""
+    obs = np.zeros(len(prob.mesh.tris), bool)
+    obs[prob.rwg.plus[rows]] = True
+    obs[prob.rwg.minus[rows]] = True
+    return obs
 
 
 def grid_spacing(prob: Problem) -> float:
@@ -155,11 +161,9 @@ def build_fast_model(prob: Problem, symmetry: MirrorSymmetry | None, h: float | 
         rows, u = symmetry.reps, symmetry.u
     else:
         rows, u = np.arange(prob.n), sp.identity(prob.n, format="csr")
-    obs = np.zeros(t, bool)
-    obs[prob.rwg.plus[rows]] = True
-    obs[prob.rwg.minus[rows]] = True
-    pairs = _precorrection_pairs(mesh.centroids, mesh.sizes, obs, prob.near_factor, h)
-    return FastModel(prob, symmetry, np.asarray(rows), u.tocsr(), grid, level, project, (pts, w), pairs)
+    pairs = _precorrection_pairs(mesh.centroids, mesh.sizes, row_triangles(prob, rows), prob.near_factor, h)
+    return FastModel(prob, symmetry, np.asarray(rows), u.tocsr(), grid, level, project, (pts, w), (ix, iy, wx, wy),
+                     pairs)
 
 
 def _precorrection_pairs(cen: np.ndarray, size: np.ndarray, obs: np.ndarray, near_factor: float,
@@ -180,20 +184,19 @@ def _precorrection_pairs(cen: np.ndarray, size: np.ndarray, obs: np.ndarray, nea
     return np.stack([o[keep], s[keep]], axis=1)
 
 
-BYTES_PER_PAIR = 1600  # peak bytes per precorrection or series pair beyond the series itself (measured; see
-# memory_estimate)
+BYTES_PER_PAIR = 1600  # peak bytes per precorrection or series pair beyond the series itself (see memory_estimate)
 BASE_BYTES = 400 * 2**20  # interpreter, numpy/scipy and chunk temporaries of one worker
 
 
 def memory_estimate(prob: Problem, symmetry: MirrorSymmetry | None) -> int:
     """Peak bytes of one worker's fast solve of ``prob``, before any: the power series of the
     engine's near moments (8 B x terms x moments per near pair), the sparse near matrices and
-    their structure (per pair), the grid's kernels and the fixed base. Calibrated on measured
-    peak resident memory (``benchmarks/bench_surface.py --memory``)."""
+    their structure (per pair), the grid's kernels and the fixed base. ``BYTES_PER_PAIR`` was
+    set on one measured peak (one worker, ``sawtooth-20-16`` at 0.5 m over soil: 1.56 GiB) and
+    overestimates another (``square-30`` at 0.5 m: 2.14 GiB per worker estimated, a 3.30 GiB
+    peak for two workers and the parent measured)."""
     model = build_fast_model(prob, symmetry)
-    obs = np.zeros(len(prob.mesh.tris), bool)
-    obs[prob.rwg.plus[model.rows]] = True
-    obs[prob.rwg.minus[model.rows]] = True
+    obs = row_triangles(prob, model.rows)
     near = [int(obs[p[:, 0]].sum()) for p in prob.near]
     terms = 32  # typical at 100 MHz on these meshes
     series = 8 * terms * (6 * near[0] + (sum(near[1:]) * (1 if prob.ground == "soil" else 6)))
@@ -230,7 +233,7 @@ def problem_of(mesh, ground: str, near_factor: float, soil) -> Problem:
 
 
 # ------------------------------------------------------------------ per frequency
-def _grid_kernels(model: FastModel, k: float, weights, kernels) -> np.ndarray:
+def _grid_kernels(model: FastModel, k: float, weights, kernels) -> tuple[np.ndarray, np.ndarray]:
     """FFTs of the vector and scalar kernels on grid offsets, [n_lev, n_lev, 2, Sx, Sy]
     (observation level, source level), and the offset tables [n_lev, n_lev, 2, 2nx-1, 2ny-1]
     used by the precorrection."""
@@ -276,9 +279,8 @@ def _grid_pair_values(model: FastModel, table: np.ndarray, pairs: np.ndarray) ->
     and scalar kernels. The stencils are separable, so each point pair sees a 7 x 7 window
     of kernel offsets weighted by the correlation of its x stencils times that of its y."""
     g = model.grid
-    pts = model.points[0]
     o, s = pairs[:, 0], pairs[:, 1]
-    ix, iy, wx, wy = g.stencil(pts[..., :2])  # [T, 3], [T, 3, 4]
+    ix, iy, wx, wy = model.stencils  # [T, 3], [T, 3, 4]
 
     def correlate(w: np.ndarray) -> np.ndarray:  # c[d] = sum_{a - b = d - 3} w_o[a] w_s[b], [P, 3, 3, 7]
         outer = w[o][:, :, None, :, None] * w[s][:, None, :, None, :]
