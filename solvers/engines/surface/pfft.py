@@ -50,7 +50,6 @@ from .rwg import (
     feed_signs,
     near_geometry,
     rwg_basis,
-    smooth_moments,
 )
 
 GRID_FRACTION = 0.3  # grid spacing as a fraction of the plate's typical triangle size
@@ -432,25 +431,50 @@ class NearSeries:
             gap = np.linalg.norm(cen[pairs[:, 0]] - src, axis=1)
             close = gap < CLOSE_FACTOR * np.maximum(size[pairs[:, 0]], size[pairs[:, 1]])
             for sel, rule in ((~close, _Q7), (close, _Q7_TOUCHING)):
-                for start in range(0, int(sel.sum()), 20000 if rule is _Q7 else 4000):
-                    pr = pairs[sel][start:start + (20000 if rule is _Q7 else 4000)]
+                # nearest first, so each block's series is as short as its farthest pair allows
+                ordered = pairs[sel][np.argsort(gap[sel], kind="stable")]
+                for start in range(0, len(ordered), 20000 if rule is _Q7 else 4000):
+                    pr = ordered[start:start + (20000 if rule is _Q7 else 4000)]
                     sing, terms = self._terms(mesh, pr, img, rule, scalar=img and self.scalar_images)
                     self.groups.append((img, pr, sing, terms))
                     self.rules.append(rule)
 
-    def _terms(self, mesh, pairs: np.ndarray, image: bool, rule, scalar: bool) -> tuple[np.ndarray, np.ndarray]:
-        """Static singular moments and the series' terms of one group (``scalar``: S0 only)."""
-        sing, r, wo, ws, rho, ps = near_geometry(mesh, pairs, image, rule)
-        x = self.k_max * float(r.max(initial=0.0))
+    def _n_terms(self, r_max: float) -> int:
+        """Terms of the series until x^n / n! < SERIES_TOL, x = k_max R_max."""
+        x = self.k_max * r_max
         n_terms, size = 1, x
-        while size > SERIES_TOL:  # x^n / n! for n = 1, 2, ...
+        while size > SERIES_TOL:
             n_terms += 1
             size *= x / n_terms
-        terms = np.empty((n_terms, 1 if scalar else 6, len(pairs)))
-        power = np.broadcast_to(ws[:, None, :], r.shape).copy()
-        for n in range(n_terms):
-            terms[n] = (wo * power.sum(axis=2)).sum(axis=1) if scalar else smooth_moments(power, wo, rho, ps)
-            power *= r
+        return n_terms
+
+    def _terms(self, mesh, pairs: np.ndarray, image: bool, rule, scalar: bool) -> tuple[np.ndarray, np.ndarray]:
+        """Static singular moments and the series' terms [n_terms, 6 (1 if ``scalar``: S0
+        only), n] of one group: the terms of :func:`rwg.smooth_moments` of ws R^(n-1), taken
+        all at once (the six moments are linear in the kernel samples, so each point pair is
+        weighted once by its factors and every power of R is one matrix product), in blocks
+        that each stop at their own last term."""
+        sing, r, wo, ws, rho, ps = near_geometry(mesh, pairs, image, rule)
+        w = wo[:, :, None] * ws[:, None, :]  # [n, Qo, 7]
+        if scalar:
+            factors = w[..., None]
+        else:  # 1, rho, rho . rho', rho' (smooth_moments' order)
+            factors = np.stack([w, w * rho[..., 0, None], w * rho[..., 1, None],
+                                w * np.einsum("nqk,nik->nqi", rho, ps), w * ps[:, None, :, 0], w * ps[:, None, :, 1]],
+                               axis=-1)
+        n = len(pairs)
+        factors = factors.reshape(n, -1, factors.shape[-1])  # [n, M, F]
+        r = r.reshape(n, -1)
+        terms = np.zeros((self._n_terms(float(r.max(initial=0.0))), factors.shape[-1], n))
+        block = max(1, 2_000_000 // (len(terms) * r.shape[1]))  # ~16 MB of powers
+        for lo in range(0, n, block):
+            rb = r[lo:lo + block]
+            n_terms = self._n_terms(float(rb.max(initial=0.0)))
+            powers = np.empty((len(rb), n_terms, rb.shape[1]))
+            powers[:, 0] = 1.0
+            for m in range(1, n_terms):
+                np.multiply(powers[:, m - 1], rb, out=powers[:, m])
+            terms[:n_terms, :, lo:lo + block] = np.matmul(powers, factors[lo:lo + block]).transpose(1, 2, 0)
         return (sing[:1] if scalar else sing), terms
 
     def moments(self, k: float):
