@@ -76,3 +76,179 @@ def fom_figure(results: Sequence[FomResult], labels: Sequence[str], path: str | 
     save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
+
+
+# ------------------------------------------------------------------ beam figures
+BEAM_PANELS = ("cuts", "derivative", "poly3", "widths")
+"""The panels of :func:`beam_figures`: gain cuts, dG/dnu maps, 3-term residuals, beam widths."""
+
+
+def _plane_cut(beam, phi_deg: float, freq_index: int) -> tuple[np.ndarray, np.ndarray]:
+    """(elevation 0..180 deg across the vertical plane at ``phi_deg``, gain in dBi): horizon at
+    phi, zenith at 90, horizon at phi + 180 (the paper's axes; gain_derivative's too)."""
+    hemi = beam.upper_hemisphere()
+    a, b = hemi.cut(phi_deg)[freq_index], hemi.cut(phi_deg + 180.0)[freq_index]
+    elev = np.concatenate([90.0 - hemi.theta_deg, 90.0 + hemi.theta_deg[1:]])
+    g = np.concatenate([a, b[1:]])
+    order = np.argsort(elev)
+    return elev[order], 10 * np.log10(np.maximum(g[order], 1e-30))
+
+
+def _show_freqs(beams, freqs: Sequence[float] | None) -> list[float]:
+    """The frequencies the cut panel draws: those asked for, else the lowest, middle and
+    highest the first beam holds."""
+    if freqs:
+        return list(freqs)
+    f = beams[0].freqs_mhz
+    return sorted({float(f[0]), float(f[len(f) // 2]), float(f[-1])})
+
+
+def _draw_cuts(fig, spec, beams, labels, freqs) -> None:
+    styles = ["-", "--", ":", "-."]
+    cmap = pyplot().get_cmap("viridis")
+    for col, (phi, plane) in enumerate(((0.0, "E-plane (phi 0)"), (90.0, "H-plane (phi 90)"))):
+        ax = fig.add_subplot(spec[col])
+        for j, (beam, lab) in enumerate(zip(beams, labels)):
+            for i, f in enumerate(freqs):
+                k = int(np.argmin(np.abs(beam.freqs_mhz - f)))
+                if abs(beam.freqs_mhz[k] - f) > 1e-6:
+                    continue
+                elev, db = _plane_cut(beam, phi, k)
+                ax.plot(elev, db, ls=styles[j % len(styles)], color=cmap(i / max(1, len(freqs) - 1) * 0.9),
+                        label=f"{lab}, {f:g} MHz" if len(beams) > 1 else f"{f:g} MHz", lw=1.2)
+        ax.set(title=f"gain, {plane}", xlabel="elevation across the plane (deg)", ylabel="gain (dBi)",
+               xlim=(0, 180), ylim=(-25, 10))
+        ax.set_xticks([0, 30, 60, 90, 120, 150, 180])
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+
+
+def _draw_derivative(fig, spec, beams, labels) -> None:
+    from .fom import gain_derivative
+
+    maps = [[gain_derivative(b, phi) for phi in (0.0, 90.0)] for b in beams]
+    peak = max(float(np.max(np.abs(d))) for row in maps for (_, _, d) in row) or 1.0
+    sub = spec.subgridspec(len(beams), 2)
+    for j, (row, lab) in enumerate(zip(maps, labels)):
+        for col, ((fm, elev, d), plane) in enumerate(zip(row, ("E-plane", "H-plane"))):
+            ax = fig.add_subplot(sub[j, col])
+            im = ax.pcolormesh(elev, fm, d, cmap="RdBu_r", vmin=-peak, vmax=peak, shading="nearest")
+            ax.set(title=f"dG/dnu, {plane}" + (f": {lab}" if len(beams) > 1 else ""), xlabel="elevation (deg)",
+                   ylabel="frequency (MHz)", xlim=(0, 180))
+            fig.colorbar(im, ax=ax, label="dG/dnu (1/MHz)")
+
+
+def _draw_poly3(fig, spec, beams, labels) -> None:
+    from .errors import UserInputError
+    from .fom import gain_polynomial_residuals
+
+    sub = spec.subgridspec(1, 3)
+    axes = [fig.add_subplot(sub[0, i]) for i in range(3)]
+    for beam, lab in zip(beams, labels):
+        band = (max(50.0, beam.freqs_mhz.min()), min(100.0, beam.freqs_mhz.max()))
+        try:
+            res = gain_polynomial_residuals(beam, band)
+        except UserInputError as exc:  # too few frequencies for the fit: say so on the figure
+            axes[0].text(0.02, 0.02, f"{lab}: {exc}"[:90], transform=axes[0].transAxes, fontsize=6)
+            continue
+        for ax, (name, title) in zip(axes, (("zenith", "zenith"), ("E45", "E-plane, 45 deg elevation"),
+                                            ("H45", "H-plane, 45 deg elevation"))):
+            r = res[name]
+            ax.plot(r["freqs_mhz"], r["residual"], label=f"{lab} (p-p {r['peak_to_peak']:.4f})", lw=1.2)
+            ax.set(title=f"G - 3-term fit in nu: {title}", xlabel="frequency (MHz)", ylabel="residual gain (linear)")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+
+
+def _draw_widths(fig, spec, beams, labels) -> None:
+    sub = spec.subgridspec(1, 2)
+    for col, (phi, plane) in enumerate(((0.0, "E-plane"), (90.0, "H-plane"))):
+        ax = fig.add_subplot(sub[0, col])
+        for beam, lab in zip(beams, labels):
+            ax.plot(beam.freqs_mhz, [beam.beam_width_3db(f, phi) for f in beam.freqs_mhz], label=lab, lw=1.2)
+        ax.set(title=f"3 dB beam width, {plane}", xlabel="frequency (MHz)", ylabel="full width (deg)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+
+
+def beam_figures(beams: Sequence, labels: Sequence[str], path: str | Path, panels: bool = False,
+                 freqs: Sequence[float] | None = None) -> list[Path]:
+    """The paper's beam figures for one or several beams on shared axes: gain vs elevation in
+    the E and H planes, dG/dnu maps vs elevation and frequency, residuals of a 3-term
+    polynomial in frequency at zenith and 45 deg elevation, 3 dB widths vs frequency. One
+    file, or with ``panels`` one per panel (``<stem>-<panel><suffix>``)."""
+    plt = pyplot()
+    path = check_figure_path(path)
+    shown = _show_freqs(beams, freqs)
+    draw = {"cuts": (lambda fig, spec: _draw_cuts(fig, spec.subgridspec(1, 2), beams, labels, shown), 4.2),
+            "derivative": (lambda fig, spec: _draw_derivative(fig, spec, beams, labels), 3.6 * len(beams)),
+            "poly3": (lambda fig, spec: _draw_poly3(fig, spec, beams, labels), 3.6),
+            "widths": (lambda fig, spec: _draw_widths(fig, spec, beams, labels), 3.6)}
+    written = []
+    groups = [[p] for p in BEAM_PANELS] if panels else [list(BEAM_PANELS)]
+    for group in groups:
+        heights = [draw[p][1] for p in group]
+        fig = plt.figure(figsize=(13, sum(heights) + 0.6))
+        spec = fig.add_gridspec(len(group), 1, height_ratios=heights)
+        for i, p in enumerate(group):
+            draw[p][0](fig, spec[i])
+        fig.suptitle(", ".join(labels) if len(labels) < 4 else f"{len(labels)} beams", fontsize=10)
+        fig.tight_layout()
+        out = path.with_name(f"{path.stem}-{group[0]}{path.suffix}") if panels else path
+        written.append(save_figure(fig, out))
+        plt.close(fig)
+    return written
+
+
+def comparison_figure(comparison, path: str | Path) -> Path:
+    """What ``groundplane compare`` found: each beam minus the first in dB over the sky (polar
+    maps, zenith at the centre) at the lowest, middle and highest common frequency; the rms
+    difference vs frequency; FoM vs LST of each beam (lines every LST, markers in LST bins)."""
+    plt = pyplot()
+    path = check_figure_path(path)
+    c = comparison
+    f = c.freqs_mhz
+    picks = sorted({0, len(f) // 2, len(f) - 1})
+    common = c.common
+    n_pairs = len(c.pairs)
+    fig = plt.figure(figsize=(13, 3.6 * n_pairs + 4.2))
+    spec = fig.add_gridspec(n_pairs + 1, len(picks) if len(picks) > 1 else 2)
+    sky = common[0].theta_deg <= 90.0 - c.elevation_cut_deg + 1e-9
+    theta = common[0].theta_deg[sky]
+    phi = np.radians(np.append(common[0].phi_deg, common[0].phi_deg[0] + 360.0))
+    diffs = [10 * np.log10(np.maximum(b.gain[:, sky], 1e-30) / np.maximum(common[0].gain[:, sky], 1e-30))
+             for b in common[1:]]
+    lim = max(float(np.max(np.abs(d[picks]))) for d in diffs) or 0.01
+    for row, (p, d) in enumerate(zip(c.pairs, diffs)):
+        for col, k in enumerate(picks):
+            ax = fig.add_subplot(spec[row, col], projection="polar")
+            z = np.concatenate([d[k], d[k][:, :1]], axis=1)
+            im = ax.pcolormesh(phi, theta, z, cmap="RdBu_r", vmin=-lim, vmax=lim, shading="nearest")
+            ax.set_title(f"{p.b} - {p.a}, {f[k]:g} MHz", fontsize=8)
+            ax.set_theta_zero_location("E")
+            ax.set_yticks([30, 60, 90 - c.elevation_cut_deg])
+            ax.tick_params(labelsize=6)
+            fig.colorbar(im, ax=ax, label="dB", shrink=0.8)
+    fig.text(0.01, 0.995, "maps: radius = zenith angle (deg), angle = azimuth from the excitation axis (phi 0 = "
+             "E-plane)", fontsize=7, va="top")
+    ax = fig.add_subplot(spec[n_pairs, 0])
+    for p in c.pairs:
+        ax.plot(f, p.rms_db, label=f"{p.b} - {p.a}", lw=1.2)
+    ax.set(title=f"rms difference over the sky above {c.elevation_cut_deg:g} deg", xlabel="frequency (MHz)",
+           ylabel="rms (dB)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    ax = fig.add_subplot(spec[n_pairs, 1:])
+    for b in c.beams:
+        line, = ax.plot(b.fom.lst_hours, b.fom.fom * 1e3, lw=1.0, label=f"{b.label} ({b.fom.lst_averaged_fom_mk:.1f} mK; "
+                        f"{b.fom_binned.lst_averaged_fom_mk:.1f} in {c.bin_hours:g} h bins)")
+        ax.plot(b.fom_binned.lst_hours, b.fom_binned.fom * 1e3, "o", color=line.get_color(), ms=4)
+    ax.set(title="FoM vs LST (lines every LST, markers in LST bins)", xlabel="LST (h)", ylabel="FoM (mK)", xlim=(0, 24))
+    ax.set_yscale("log")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)
+    return path

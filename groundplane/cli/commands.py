@@ -8,7 +8,7 @@ from pathlib import Path
 from .. import shapes as sh
 from ..fom import FomSettings
 from ..options import add_options, from_args
-from . import add_shape_options, command, shape_from_args
+from . import CLIError, add_shape_options, command, shape_from_args
 
 
 def _format_choices() -> list[str]:
@@ -132,3 +132,81 @@ def _run_convert(args: argparse.Namespace) -> int:
     print(f"wrote {out}{note}: {beam.freqs_mhz.size} frequencies {beam.freqs_mhz.min():g}-{beam.freqs_mhz.max():g} MHz, "
           f"{beam.theta_deg.size} x {beam.phi_deg.size} directions")
     return 0
+
+
+def _beams_of(paths: list[str], format: str) -> list:
+    """Each path one beam (a FEKO quadrant set is converted to one .npz first)."""
+    from ..beam import Beam
+
+    return [Beam.from_file(p, format) for p in paths]
+
+
+@command("plot", "draw the paper's beam figures: gain cuts, dG/dnu maps, 3-term residuals, widths")
+def _setup_plot(p: argparse.ArgumentParser):
+    p.add_argument("paths", nargs="+", metavar="BEAM", help="beam file(s), drawn on shared axes")
+    p.add_argument("-o", "--output", required=True, metavar="FILE.png", help="figure file (.png, .svg or .pdf)")
+    p.add_argument("--format", default="auto", choices=_format_choices(), help="beam file format (default: detect)")
+    p.add_argument("--panels", action="store_true",
+                   help="one file per panel: FILE-cuts, FILE-derivative, FILE-poly3, FILE-widths")
+    p.add_argument("--freqs", type=float, nargs="+", metavar="MHZ",
+                   help="frequencies of the gain cuts (default: the first beam's lowest, middle and highest)")
+    return _run_plot
+
+
+def _run_plot(args: argparse.Namespace) -> int:
+    from ..plots import beam_figures, check_figure_path
+
+    check_figure_path(args.output)  # before any work
+    beams = _beams_of(args.paths, args.format)
+    for f in args.freqs or []:
+        if not any(abs(b.freqs_mhz - f).min() < 1e-6 for b in beams):
+            raise CLIError(f"--freqs {f:g}: none of the beams holds {f:g} MHz")
+    labels = [Path(x).name for x in args.paths]
+    for out in beam_figures(beams, labels, args.output, panels=args.panels, freqs=args.freqs):
+        print(f"wrote {out}")
+    return 0
+
+
+@command("compare", "two or more beams on common frequencies: dB differences over the sky, zenith ratio, "
+         "widths, efficiency, and their FoMs scored alike")
+def _setup_compare(p: argparse.ArgumentParser):
+    p.add_argument("paths", nargs="+", metavar="BEAM", help="beam files; each is compared with the first")
+    p.add_argument("--format", default="auto", choices=_format_choices(), help="beam file format (default: detect)")
+    p.add_argument("--elevation-cut", type=float, default=10.0, metavar="DEG",
+                   help="compare gains over the sky at least this far above the horizon (default 10 deg)")
+    p.add_argument("--json", action="store_true", help="print a JSON object instead of the tables")
+    p.add_argument("--plot", metavar="FILE.png", help="difference maps, rms vs frequency, FoM vs LST of each")
+    add_options(p, FomSettings, "Figure of Merit (defaults: the paper's; each beam is scored every LST and in "
+                "these LST bins, 2 h when --lst-bin is 0)")
+    return _run_compare
+
+
+def _run_compare(args: argparse.Namespace) -> int:
+    from ..compare import compare_beams
+
+    if len(args.paths) < 2:
+        raise CLIError("compare needs at least two beam files")
+    if args.plot:
+        from ..plots import check_figure_path
+
+        check_figure_path(args.plot)
+    beams = _beams_of(args.paths, args.format)
+    labels = _unique_labels(args.paths)
+    result = compare_beams(beams, labels, args.paths, from_args(FomSettings, args), args.elevation_cut, progress=True)
+    if args.plot:
+        from ..plots import comparison_figure
+
+        comparison_figure(result, args.plot)
+    if args.json:
+        print(json.dumps(result.as_json()))
+        return 0
+    print(result.markdown())
+    if args.plot:
+        print(f"\nplot: {args.plot}")
+    return 0
+
+
+def _unique_labels(paths: list[str]) -> list[str]:
+    """File names, or the paths where two files share a name."""
+    names = [Path(x).name for x in paths]
+    return names if len(set(names)) == len(names) else [str(x) for x in paths]

@@ -64,6 +64,12 @@ def narrow_rms(beam: Beam, degree: int = 12) -> float:
     return float(np.std(beam.gain - beam.frequency_smoothed(degree).gain) / np.mean(beam.gain))
 
 
+def verdict(condition: bool, holds: str, fails: str) -> str:
+    """A report's conclusion as a condition on its rows: the sentence for the outcome the
+    numbers give (both are written, so a rerun that changes the numbers changes the verdict)."""
+    return holds if condition else fails
+
+
 def write_csv(path: Path, rows: list[dict], fieldnames: list[str] | None = None) -> None:
     """A study's table as CSV, replaced atomically (a rerun or a kill never leaves half a file)."""
     from groundplane.files import atomic_path

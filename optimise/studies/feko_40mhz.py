@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from groundplane.compare import direction_differences, shared_grid, upper_hemisphere_efficiency
 from groundplane.design import Design, Soil
 from groundplane.errors import UserInputError
 from groundplane.plots import pyplot
@@ -47,6 +48,7 @@ FEKO_CASES = [Case("square-10", "nec", sp) for sp in (1.0, 0.7, 0.5, 0.35, 0.25)
     Case("square-10", "surface", 0.7), Case("square-10", "surface", 0.5),
     Case("sawtooth-20-16", "surface", 0.7), Case("extended", "surface", 0.7), Case("extended", "surface", 0.5)]
 ELEVATIONS = (90, 60, 45, 30, 20, 10, 5)
+ELEVATION_CUT_DEG = 10.0
 
 
 def feko_40mhz(out: Path, command: str, feko_dir: Path | None = None) -> None:
@@ -62,11 +64,10 @@ def feko_40mhz(out: Path, command: str, feko_dir: Path | None = None) -> None:
     feko = load_beam(files)
 
     def cuts(b) -> dict:
-        g = b.gain[int(np.argmin(np.abs(b.freqs_mhz - 40.0)))]
-        db = 10 * np.log10(np.maximum(g[:91], 1e-30))
-        w = b.solid_angle_weights()[:91]
-        return {"E": b.beam_width_3db(40.0, 0), "H": b.beam_width_3db(40.0, 90), "db": db,
-                "eff": float((g[:91] * w).sum() / w.sum() / 2)}
+        k = int(np.argmin(np.abs(b.freqs_mhz - 40.0)))
+        db = 10 * np.log10(np.maximum(b.gain[k, :91], 1e-30))
+        return {"E": b.beam_width_3db(40.0, 0), "H": b.beam_width_3db(40.0, 90), "db": db, "beam": b,
+                "eff": float(upper_hemisphere_efficiency(b)[k])}
 
     ref = cuts(feko)
     rows = [("FEKO export", None, None, ref)]  # (label, engine, segments / unknowns, cuts)
@@ -82,8 +83,9 @@ def feko_40mhz(out: Path, command: str, feko_dir: Path | None = None) -> None:
         "sits on the `extended` plane. Our models: NEC-2's wire grid (production settings, "
         f"{NecSettings().plate_height * 1e3:g} mm above the soil) and the surface engine's solid sheet "
         f"{SHEET_HEIGHT * 1e3:g} mm above it (`results/soil_surface.md`), both on MRO soil. Efficiency = "
-        "upper-hemisphere mean gain / 2 (1 = nothing lost in the soil). Differences from FEKO over every "
-        "direction 10 deg or more above the horizon.",
+        "upper-hemisphere mean gain / 2 (1 = nothing lost in the soil). Differences from FEKO as "
+        f"`groundplane compare` gives them: rms weighted by solid angle, and the largest, over the sky "
+        f"{ELEVATION_CUT_DEG:g} deg or more above the horizon.",
         "",
         "| beam | segments / unknowns | E width (deg) | H width (deg) | efficiency | "
         + " | ".join(f"E {e} deg elev (dBi)" for e in ELEVATIONS) + " | " + " | ".join(f"H {e} deg" for e in ELEVATIONS)
@@ -94,8 +96,9 @@ def feko_40mhz(out: Path, command: str, feko_dir: Path | None = None) -> None:
     for label, _, seg, c in rows:
         e_cut = [c["db"][90 - e, 0] for e in ELEVATIONS]
         h_cut = [c["db"][90 - e, 90] for e in ELEVATIONS]
-        d = c["db"][:81] - ref["db"][:81]
-        diffs[label] = (float(np.sqrt(np.mean(d ** 2))), float(np.max(np.abs(d))))
+        a, b = shared_grid([ref["beam"], c["beam"]], ["FEKO export", label])
+        d = direction_differences(a, b, ELEVATION_CUT_DEG)  # groundplane compare's numbers
+        diffs[label] = (float(d["rms_db"][0]), float(d["max_db"][0]))
         lines.append(f"| {label} | {seg or '-'} | {c['E']:.1f} | {c['H']:.1f} | {c['eff']:.3f} | "
                      + " | ".join(f"{v:.2f}" for v in e_cut) + " | " + " | ".join(f"{v:.2f}" for v in h_cut)
                      + f" | {diffs[label][0]:.2f} | {diffs[label][1]:.2f} |")
@@ -141,7 +144,7 @@ def _reading(rows: list, diffs: dict[str, tuple[float, float]]) -> list[str]:
     nec = [label for label, engine, *_ in rows[1:] if engine == "nec"]
     closest_nec = min(nec, key=lambda k: diffs[k][0]) if nec else None
     out = [f"- **Closest to FEKO: {best}**: rms {diffs[best][0]:.2f} dB, at most {diffs[best][1]:.2f} dB over "
-           f"the sky above 10 deg; widths {c['E']:.1f} / {c['H']:.1f} deg (FEKO {ref['E']:.1f} / {ref['H']:.1f}), "
+           f"the sky above {ELEVATION_CUT_DEG:g} deg; widths {c['E']:.1f} / {c['H']:.1f} deg (FEKO {ref['E']:.1f} / {ref['H']:.1f}), "
            f"efficiency {c['eff']:.3f} (FEKO {ref['eff']:.3f})."]
     if closest_nec:
         out.append(f"- NEC-2's wire grid comes no closer than {diffs[closest_nec][0]:.2f} dB rms ({closest_nec}).")
