@@ -36,3 +36,30 @@ def test_lst_correlation_tells_slow_from_fast_residuals():
     assert lst_correlation(spectrum * np.ones((1, 360)), 8) == pytest.approx(1.0)
     flip = np.where(np.arange(352) % 16 < 8, 1.0, -1.0)  # sign changes every 8 LSTs (352: whole periods)
     assert lst_correlation(spectrum * flip[None, :], 8) == pytest.approx(-1.0)
+
+
+def _table(**changes):
+    """square-10 on soil: NEC's grid and the sheet at two heights, as the committed study
+    found them in spirit (the sheet less lossy, FoM falling as the gap closes)."""
+    def row(role, height, fom, eff, peak, engine="surface"):
+        return {"preset": "square-10", "engine": engine, "role": role, "height_m": height, "spacing_m": 0.7,
+                "narrow_rms": 1e-4, "efficiency_75": eff, "fom_mk": fom, "paper_mk": 240.0, "ratio": fom / 240,
+                "fom_peak_lst_h": peak, "fom_lst_max_mk": 900.0, "zenith_first": 6.0, "zenith_last": 4.0,
+                "model": role, "feed_width_m": 0.04, "panel_width_m": None}
+    rows = {"nec": row("nec", 0.005, 230.0, 0.80, 21.0, engine="nec"), "high": row("height", 0.05, 300.0, 0.95, 18.5),
+            "low": row("height", 0.01, 260.0, 0.93, 17.5)}
+    for name, fields in changes.items():
+        rows[name] = {**rows[name], **fields}
+    return list(rows.values())
+
+
+def test_each_verdict_follows_its_rows():
+    from optimise.studies.soil_surface import _reading
+
+    text = "\n".join(_reading(_table()))
+    assert "sheet loses less power into the soil than NEC's grid" in text
+    assert "the FoM falls at every step" in text and "Only the sheet peaks within 2 h" in text
+    assert "does not lose less power" in "\n".join(_reading(_table(nec={"efficiency_75": 0.99})))
+    assert "does not fall at every step" in "\n".join(_reading(_table(low={"fom_mk": 320.0})))
+    flipped = "\n".join(_reading(_table(nec={"fom_peak_lst_h": 19.0})))
+    assert "Only the sheet" not in flipped and "NEC: yes" in flipped

@@ -35,3 +35,4 @@ def test_soil_sweep_scores_both_binnings_and_reads_each_planes_spread(tmp_path, 
     assert "`square-10` 272.0-470.0 mK (64 % of its MRO value)" in md
     assert "`extended` 136.0-235.0 mK (64 % of its MRO value)" in md
     assert (tmp_path / "soil_sweep.png").stat().st_size > 1000
+
