@@ -289,9 +289,10 @@ class Plus(GroundPlane, kind="plus"):
         return 5 * p["arm"] ** 2
 
 
-def _square_with_teeth(side: float, n: int, base: float, height: float) -> np.ndarray:
-    """Counter-clockwise vertices of a square with ``n`` isosceles teeth per side, each
-    centred in one of ``n`` equal segments of the side."""
+def _square_with_teeth(side: float, n: int, base: float, height: float, tip: float = 0.0) -> np.ndarray:
+    """Counter-clockwise vertices of a square with ``n`` symmetric teeth per side, each
+    centred in one of ``n`` equal segments of the side: triangles, or trapezoids whose tip is
+    ``tip`` wide."""
     h = side / 2
     seg = side / n
     pts: list[tuple[float, float]] = []
@@ -299,7 +300,7 @@ def _square_with_teeth(side: float, n: int, base: float, height: float) -> np.nd
     local: list[tuple[float, float]] = [(-h, 0.0)]
     for i in range(n):
         c = -h + (i + 0.5) * seg
-        local += [(c - base / 2, 0.0), (c, height), (c + base / 2, 0.0)]
+        local += [(c - base / 2, 0.0), (c - tip / 2, height), (c + tip / 2, height), (c + base / 2, 0.0)]
     for k in range(4):
         ang = k * math.pi / 2
         ca, sa = math.cos(ang), math.sin(ang)
@@ -350,6 +351,63 @@ class Sawtooth(GroundPlane, kind="sawtooth"):
     @property
     def n_teeth(self) -> int:
         return 4 * int(self.teeth_per_side)
+
+
+class Teeth(GroundPlane, kind="teeth"):
+    """A central square of side ``side`` with ``teeth_per_side`` trapezoidal teeth on each
+    side (base ``tooth_base``, height ``tooth_height``, tip ``tip_fraction`` x the base wide),
+    evenly spaced: the optimiser's general family. The paper's shapes are members: a sawtooth
+    has tip 0, a plus one tooth as wide and as tall as the side with tip 1, a square teeth of
+    height 0 (:meth:`member`)."""
+
+    side: float = param("side of the central square (m)", bounds=(4.0, 30.0))
+    teeth_per_side: int = param("teeth on each side of the square (4 x this in all)", values=(1, 2, 3, 4, 5, 6),
+                                minimum=1)
+    tooth_base: float = param("base of each tooth along the side (m)", bounds=(0.5, 15.0))
+    tooth_height: float = param("height of each tooth out from the side (m); 0: none", bounds=(0.0, 12.0),
+                                minimum=None)
+    tip_fraction: float = param("width of each tooth's tip as a fraction of its base: 0 a triangle, 1 a rectangle",
+                                bounds=(0.0, 1.0), minimum=None)
+
+    def _vertices(self) -> np.ndarray:
+        v = _square_with_teeth(self.side, int(self.teeth_per_side), self.tooth_base, self.tooth_height,
+                               self.tip_fraction * self.tooth_base)
+        a, b = v - np.roll(v, 1, axis=0), np.roll(v, -1, axis=0) - v
+        turn = np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+        return v[turn > 1e-9 * self.side ** 2]  # a vertex on a straight edge (teeth of height 0) is no corner
+
+    @classmethod
+    def area_of(cls, p: dict[str, Any]) -> float:
+        return p["side"] ** 2 + 4 * p["teeth_per_side"] * p["tooth_height"] * p["tooth_base"] * (1 + p["tip_fraction"]) / 2
+
+    @classmethod
+    def constraints(cls, p: dict[str, Any]) -> list[tuple[float, str]]:
+        n, base, side, height, tip = p["teeth_per_side"], p["tooth_base"], p["side"], p["tooth_height"], p["tip_fraction"]
+        return [(n * base - side, f"{n} teeth of base {base:g} m need {n * base:g} m but a side is {side:g} m"),
+                (-height, f"tooth_height {height:g} m must be >= 0"),
+                (-tip, f"tip_fraction {tip:g} must be >= 0"), (tip - 1, f"tip_fraction {tip:g} must be <= 1")]
+
+    @classmethod
+    def optimiser_start(cls, max_area: float, integer: dict[str, int]) -> dict[str, float]:
+        # half the budget in the square, teeth filling 80 % of each side, the rest in their height
+        n = integer["teeth_per_side"]
+        side = min(30.0, math.sqrt(0.5 * max_area))
+        base = 0.8 * side / n
+        return {"side": side, "tooth_base": base, "tip_fraction": 0.5,
+                "tooth_height": min(12.0, 0.3 * max_area / (4 * n * base * 0.75))}
+
+    @classmethod
+    def member(cls, plane: GroundPlane) -> "Teeth | None":
+        """``plane`` as a member of this family, when it is one exactly (same outline)."""
+        if isinstance(plane, Teeth):
+            return plane
+        if isinstance(plane, Sawtooth):
+            return cls(plane.side, int(plane.teeth_per_side), plane.tooth_base, plane.tooth_height, 0.0)
+        if isinstance(plane, Plus):
+            return cls(plane.arm, 1, plane.arm, plane.arm, 1.0)
+        if isinstance(plane, Square):
+            return cls(plane.side, 1, 0.5 * plane.side, 0.0, 0.0)
+        return None
 
 
 class RegularPolygon(GroundPlane, kind="polygon-n"):

@@ -77,3 +77,34 @@ def test_invalid_parameters_rejected(make, msg):
     with pytest.raises(ShapeError, match=msg):
         make()
 
+
+
+def test_teeth_family_holds_the_papers_shapes_exactly():
+    """Every Table 3 preset is a member of the optimiser's general family, outline and area."""
+    from groundplane.shapes import PRESETS, Teeth
+
+    for name, plane in PRESETS.items():
+        member = Teeth.member(plane)
+        assert member is not None, name
+        assert member.outline().symmetric_difference(plane.outline()).area < 1e-9, name
+        assert member.metal_area == pytest.approx(plane.metal_area, rel=1e-12), name
+
+
+@pytest.mark.parametrize("params", [(12.0, 3, 3.0, 4.0, 0.0), (12.0, 3, 3.0, 4.0, 0.4), (8.0, 1, 8.0, 6.0, 1.0),
+                                    (20.0, 6, 3.0, 2.5, 0.7)])
+def test_teeth_area_is_the_outlines(params):
+    from groundplane.shapes import Teeth
+
+    t = Teeth(*params)
+    assert t.outline().is_valid and t.metal_area == pytest.approx(t.outline().area, rel=1e-12)
+    assert Teeth.area_of(t.params()) == pytest.approx(t.outline().area, rel=1e-12)
+
+
+def test_teeth_that_do_not_fit_are_refused():
+    from groundplane.errors import ShapeError
+    from groundplane.shapes import Teeth
+
+    with pytest.raises(ShapeError, match="4 teeth of base 3 m need 12 m but a side is 10 m"):
+        Teeth(10.0, 4, 3.0, 2.0, 0.5)
+    with pytest.raises(ShapeError, match="tip_fraction 1.5 must be <= 1"):
+        Teeth(10.0, 2, 3.0, 2.0, 1.5)
