@@ -150,6 +150,12 @@ class GroundPlane:
         return []
 
     @classmethod
+    def member(cls, plane: "GroundPlane") -> "GroundPlane | None":
+        """``plane`` as a member of this family when it is one (the optimiser's seeds); a family
+        that holds other families' shapes exactly says so here."""
+        return plane if isinstance(plane, cls) else None
+
+    @classmethod
     def optimiser_start(cls, max_area: float, integer: dict[str, int]) -> dict[str, float]:
         """A valid starting point with metal area below ``max_area``: the family's
         parameters at the middle of their bounds, lengths scaled to 80 % of the budget."""

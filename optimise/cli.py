@@ -67,19 +67,60 @@ def _setup_optimise(p: argparse.ArgumentParser):
     from .search import optimisable
 
     p.add_argument("--shape", required=True, choices=optimisable())
-    p.add_argument("--max-area", type=float, required=True, help="metal budget, m^2")
+    area = p.add_mutually_exclusive_group(required=True)
+    area.add_argument("--max-area", type=float, help="metal budget, m^2")
+    area.add_argument("--pareto", type=float, nargs="+", metavar="A",
+                      help="the front: the best design at each of these metal budgets (m^2), beside the paper's "
+                           "presets and the blade over infinite PEC; writes pareto.csv, presets.csv, ladder.csv, "
+                           "pareto.md and figures")
+    p.add_argument("--strategy", choices=["global", "local"], default="global",
+                   help="global (default): the family's presets and a space-filling sample, then local refinement "
+                        "of the best few; local: the algorithm from one start per integer value")
     p.add_argument("--algorithm", default="LN_COBYLA", help="nlopt algorithm taking constraints (default LN_COBYLA)")
-    p.add_argument("--budget", type=int, default=30, help="evaluations in all (default 30)")
+    p.add_argument("--budget", type=int, default=30, help="solves per search, across every integer value (default 30)")
+    p.add_argument("--executor", choices=["local", "dask"], default="local",
+                   help="dask: solve the exploration's designs in parallel on a cluster first")
+    p.add_argument("--scheduler", help="Dask scheduler address (default: a local cluster)")
+    p.add_argument("--answer-mesh", type=float, metavar="SPACING",
+                   help="--pareto: re-solve each budget's answer at this finer mesh (default 0.7 x the confirm mesh)")
+    p.add_argument("--ladder", type=int, default=24, metavar="N",
+                   help="--pareto: score N of the searched designs at the confirm level too, to measure how well the "
+                        "search level ranks (default 24; 0: don't)")
     p.add_argument("--integers", type=int, nargs="+", help="values of the family's integer parameter to try")
     p.add_argument("--compare", nargs="*", default=[], metavar="PRESET", help="presets scored with the same settings")
     p.add_argument("--step", action="store_true", help="write the best design's STEP")
     p.add_argument("--confirm-mesh", type=float, default=None, metavar="SPACING",
                    help="re-solve the best few at this finer mesh before answering (default 0.7 x the search "
-                        "mesh; 0: don't)")
+                        "mesh; with --pareto the engine's default mesh, on the fit band at 1 MHz: the default "
+                        "model, where the presets are scored too; 0: don't)")
     p.add_argument("--confirm-top", type=int, default=3, help="how many of the best to re-solve (default 3)")
     add_eval_options(p)
     p.add_argument("-o", "--out", required=True)
     return _run_optimise
+
+
+def _run_pareto(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from groundplane.options import parse_freqs
+
+    from .pareto import pareto_front, verdicts, write_report
+
+    if any(not (a > 0) for a in args.pareto):
+        raise CLIError(f"--pareto: metal budgets must be positive m^2, got {args.pareto}")
+    settings = eval_settings(args)
+    default = settings.solver_settings().__class__()
+    mesh = args.confirm_mesh or getattr(default, "spacing", None)
+    confirm = replace(settings, solver=replace(settings.solver_settings(), spacing=mesh) if mesh else None,
+                      freqs_mhz=parse_freqs("fit-band"))
+    answer = args.answer_mesh if args.answer_mesh is not None else (round(0.7 * mesh, 3) if mesh else None)
+    out = Path(args.out)
+    front = pareto_front(args.shape, args.pareto, settings, confirm, out, budget=args.budget, answer_mesh=answer or None,
+                         ladder=args.ladder, executor=args.executor, scheduler=args.scheduler)
+    path = write_report(front, out, invocation(), settings, confirm)
+    print("\n".join(verdicts(front)))
+    print(f"report: {path}")
+    return 0 if all(r["fom_mk"] is not None for r in front.rows) else 1
 
 
 def _run_optimise(args: argparse.Namespace) -> int:
@@ -90,13 +131,16 @@ def _run_optimise(args: argparse.Namespace) -> int:
     from .report import write_report
     from .search import best_plane, optimise
 
+    if args.pareto:
+        return _run_pareto(args)
     settings = eval_settings(args)
     out = Path(args.out)
     spacing = settings.spacing
     confirm = args.confirm_mesh if args.confirm_mesh is not None else (round(0.7 * spacing, 3) if spacing else None)
     res = optimise(args.shape, args.max_area, settings, out, algorithm=args.algorithm, budget=args.budget,
                    integer_values=tuple(args.integers) if args.integers else None, progress=True,
-                   confirm_mesh=confirm or None, confirm_top=args.confirm_top)
+                   confirm_mesh=confirm or None, confirm_top=args.confirm_top, strategy=args.strategy,
+                   executor=args.executor, scheduler=args.scheduler)
     if res.best and res.best.get("confirmed_at"):  # the answer and the presets at the mesh it holds at
         settings = settings.with_spacing(res.best["confirmed_at"])
     rows = [evaluate(Candidate(name, plane=preset(name)), settings) for name in args.compare]

@@ -10,6 +10,7 @@ non-finite evaluation returns a finite penalty: nlopt's COBYLA can hang on NaN.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import sys
@@ -185,13 +186,13 @@ def _differences(old: Any, new: Any, where: str = "") -> list[str]:
     return [] if old == new else [f"{where}: {json.dumps(old)[:60]} -> {json.dumps(new)[:60]}"]
 
 
-def _confirm(ev: "_Evaluator", settings: EvalSettings, out: Path, spacing: float, top: int,
-             progress: bool) -> list[dict[str, Any]]:
-    """Re-solve the ``top`` best distinct designs of the search at ``spacing`` (resumable:
-    confirm.jsonl), so the answer is one that holds at a finer mesh than the search used."""
-    fine = settings.with_spacing(spacing)
+def _confirm(ev: "_Evaluator", fine: EvalSettings, out: Path, top: int, progress: bool) -> list[dict[str, Any]]:
+    """Re-solve the ``top`` best distinct designs of the search with ``fine`` (a finer mesh, or
+    the default model; resumable: confirm.jsonl, keyed by those settings), so the answer is
+    one that holds beyond the level the search used."""
+    level = hashlib.sha256(json.dumps(fine.identity(), sort_keys=True).encode()).hexdigest()[:16]
     done = {History.key(r["integer"], r["x"]): r for r in read_jsonl(out / "confirm.jsonl")
-            if math.isclose(r.get("confirmed_at", math.nan), spacing)}  # a rerun at another mesh re-solves
+            if r.get("confirm_level") == level}  # a rerun at another level re-solves
     # history rows are distinct designs already (a replayed x is never added twice)
     picked = sorted((r for r in ev.hist.rows if r["status"] == "ok" and r["area_m2"] <= ev.max_area * (1 + 1e-9)),
                     key=lambda r: r["fom_mk"])[:top]
@@ -200,16 +201,22 @@ def _confirm(ev: "_Evaluator", settings: EvalSettings, out: Path, spacing: float
         k = History.key(r["integer"], r["x"])
         if k not in done:
             if progress:
-                print(f"  confirm {i}/{len(picked)} at {spacing:g} m: {r.get('name')} "
-                      f"({r['fom_mk']:.1f} mK at the search mesh)", file=sys.stderr, flush=True)
+                print(f"  confirm {i}/{len(picked)} at {fine.spacing:g} m: {r.get('name')} "
+                      f"({r['fom_mk']:.1f} mK at the search level)", file=sys.stderr, flush=True)
             plane = ev.fam.build(np.array(r["x"]), r["integer"])
             res = ev.evaluate_fn(Candidate(f"{ev.shape}-confirm-{i}", plane=plane), fine)
             fom = res.get("lst_averaged_fom_mk") if res.get("status") == "ok" else None
-            done[k] = {**r, "search_fom_mk": r["fom_mk"], "fom_mk": fom, "confirmed_at": spacing,
-                       "status": "ok" if fom is not None else "failed"}
+            done[k] = {**r, "search_fom_mk": r["fom_mk"], "fom_mk": fom, "confirmed_at": fine.spacing,
+                       "confirm_level": level, "status": "ok" if fom is not None else "failed"}
             append_jsonl(out / "confirm.jsonl", done[k])
         rows.append(done[k])
     return rows
+
+
+STRATEGIES = ("global", "local")
+EXPLORE_FRACTION = 0.6  # of the solves: the space-filling exploration (with the seeds); the rest refines
+EXPLORE_MIN_FILL = 0.5  # exploration samples designs using at least half the metal budget
+REFINE_STARTS = 3  # local refinements, from the best distinct designs found so far
 
 
 def optimise(
@@ -225,8 +232,22 @@ def optimise(
     progress: bool = True,
     confirm_mesh: float | None = None,
     confirm_top: int = 3,
+    confirm_settings: EvalSettings | None = None,
+    strategy: str = "global",
+    executor: str = "local",
+    scheduler: str | None = None,
 ) -> OptimiseResult:
-    """Minimise the LST-averaged FoM of ``shape`` with metal area <= ``max_area`` (m^2).
+    """Minimise the LST-averaged FoM of ``shape`` with metal area <= ``max_area`` (m^2), in at
+    most ``budget`` solves (designs that are invalid or over the budget cost none).
+
+    ``strategy`` "global": the family's presets that fit the budget (the paper's designs are
+    always scored) and a scrambled-Sobol space-filling sample of the family (integers
+    included) take EXPLORE_FRACTION of the solves; ``algorithm`` then refines the best
+    REFINE_STARTS distinct designs with the rest. "local": ``algorithm`` from the family's
+    start point, one run per integer value, the solves shared between them. With
+    ``executor`` "dask" the exploration's designs are solved in parallel on the cluster first.
+    The best ``confirm_top`` are re-solved at ``confirm_mesh`` (or with ``confirm_settings``)
+    and the answer is the best there.
 
     Raises
     ------
@@ -240,31 +261,125 @@ def optimise(
                              f"{', '.join(CONSTRAINED_ALGORITHMS)}")
     if budget < 1:
         raise UserInputError("--budget must be >= 1 evaluation")
+    if strategy not in STRATEGIES:
+        raise UserInputError(f"--strategy {strategy}: choose one of {', '.join(STRATEGIES)}")
     settings.check_scorable()
     fam = family(shape)
     ints: tuple = tuple(integer_values) if integer_values else (fam.integer_values or (None,))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    same_search(out, {"shape": shape, "max_area": max_area, "settings": settings.identity()})
+    same_search(out, {"shape": shape, "max_area": max_area, "settings": settings.identity(),
+                      **({"strategy": strategy} if strategy != "local" else {})})
     ev = _Evaluator(fam, shape, max_area, settings, History(out / "history.jsonl"),
-                    evaluate_fn or (lambda c, s: evaluate(c, s, progress=progress)), progress)
-    for n in ints:
-        _run_nlopt(fam, n, ev, algorithm, max(1, budget // len(ints)), max_area, progress)
+                    evaluate_fn or (lambda c, s: evaluate(c, s, progress=progress)), progress, budget=budget)
+    if strategy == "global":
+        _global_search(fam, ints, ev, algorithm, out, executor, scheduler)
+    else:
+        for i, n in enumerate(ints):  # the solves shared out, the first values taking the remainder
+            share = budget // len(ints) + (1 if i < budget % len(ints) else 0)
+            if share:
+                _run_nlopt(fam, n, ev, algorithm, ev.solves + share, max_area, progress)
     ok = [r for r in ev.hist.rows if r["status"] == "ok" and r["area_m2"] <= max_area * (1 + 1e-9)]
     best = min(ok, key=lambda r: r["fom_mk"]) if ok else None
     confirmed: list[dict[str, Any]] = []
-    if best is not None and confirm_mesh:
-        confirmed = _confirm(ev, settings, out, confirm_mesh, confirm_top, progress)
+    if best is not None and (confirm_mesh or confirm_settings):
+        fine = confirm_settings or settings.with_spacing(confirm_mesh)  # type: ignore[arg-type]
+        confirmed = _confirm(ev, fine, out, confirm_top, progress)
         held = [r for r in confirmed if r["status"] == "ok"]
         if held:
             best = min(held, key=lambda r: r["fom_mk"])
-    (out / "best.json").write_text(json.dumps(best, indent=1))
+    with atomic_path(out / "best.json", suffix=".tmp.json") as tmp:
+        tmp.write_text(json.dumps(best, indent=1))
     return OptimiseResult(best, ev.hist.rows, out, confirmed)
+
+
+def seeds_for(fam: Family, max_area: float, ints: tuple) -> list[tuple[str, GroundPlane, np.ndarray, int | None]]:
+    """The presets that are members of the family (exactly: :meth:`GroundPlane.member`) and fit
+    the budget: (name, the preset itself, its x, its integer)."""
+    from groundplane.shapes import PRESETS
+
+    out = []
+    for name, plane in PRESETS.items():
+        m = fam.cls.member(plane)
+        if m is None or plane.metal_area > max_area * (1 + 1e-9):
+            continue
+        p = m.params()
+        n = p.get(fam.integer) if fam.integer else None
+        x = np.array([p[k] for k in fam.names], float)
+        if (fam.integer and n not in ints) or np.any(x < np.array(fam.lower) - 1e-9) or np.any(x > np.array(fam.upper) + 1e-9):
+            continue
+        out.append((name, plane, x, n))
+    return out
+
+
+def space_filling(fam: Family, ints: tuple, max_area: float, count: int, seed: int = 0) -> list[tuple[np.ndarray, int | None]]:
+    """``count`` designs of a scrambled Sobol sequence over the bounds (and the integer values),
+    kept when valid and using EXPLORE_MIN_FILL-1 of the budget; deterministic for a seed."""
+    from scipy.stats import qmc
+
+    if count <= 0:
+        return []
+    d = len(fam.names)
+    lo, hi = np.array(fam.lower), np.array(fam.upper)
+    out: list[tuple[np.ndarray, int | None]] = []
+    for u in qmc.Sobol(d + 1, scramble=True, seed=seed).random(2 ** 14):
+        x = lo + u[:d] * (hi - lo)
+        n = ints[min(int(u[d] * len(ints)), len(ints) - 1)]
+        if EXPLORE_MIN_FILL * max_area <= fam.area(x, n) <= max_area and all(v <= 0 for v in fam.validity(x, n)):
+            out.append((x, n))
+            if len(out) == count:
+                break
+    return out
+
+
+def _global_search(fam: Family, ints: tuple, ev: "_Evaluator", algorithm: str, out: Path, executor: str,
+                   scheduler: str | None) -> None:
+    """Seeds and a space-filling sample, then local refinement from the best few."""
+    explore = max(1, math.ceil(EXPLORE_FRACTION * ev.budget))
+    seeds = seeds_for(fam, ev.max_area, ints)[:explore]
+    sample = space_filling(fam, ints, ev.max_area, 4 * explore)  # spares for designs the mesh cannot hold
+    designs = [(x, n, plane, name) for name, plane, x, n in seeds] + [(x, n, None, None) for x, n in sample]
+    if executor != "local":
+        _presolve(designs, ev, out, executor, scheduler, explore)
+    for x, n, plane, name in designs:
+        if ev.solves >= explore:
+            break
+        ev(x, np.zeros(0), n, phase="seed" if plane is not None else "explore", plane=plane, name=name)
+    # from the exploration's rows only: a resumed search's history also holds the refinements
+    ok = sorted((r for r in ev.hist.rows if r["status"] == "ok" and r.get("phase") in ("seed", "explore")),
+                key=lambda r: r["fom_mk"])
+    starts = list({History.key(r["integer"], r["x"]): r for r in ok}.values())[:REFINE_STARTS]
+    for i, r in enumerate(starts):
+        left = ev.budget - ev.solves
+        if left <= 0:
+            break
+        share = left if i == len(starts) - 1 else max(1, math.ceil(left / 2))  # the best start gets the most
+        _run_nlopt(fam, r["integer"], ev, algorithm, ev.solves + share, ev.max_area, ev.progress,
+                   x0=np.array(r["x"]), phase=f"refine-{i + 1}")
+
+
+def _presolve(designs: list, ev: "_Evaluator", out: Path, executor: str, scheduler: str | None, count: int) -> None:
+    """Solve the exploration's designs in parallel on the executor (the beam cache keeps them;
+    scoring them afterwards is a cache hit): the first ``count`` the evaluator would solve."""
+    from .sweep import run_sweep
+
+    todo = []
+    for x, n, plane, name in designs:
+        if len(todo) >= count:
+            break
+        if ev.hist.get(n, x) is None and ev.reason(x, n) is None:
+            todo.append(Candidate(name or f"{ev.shape}-explore-{len(todo)}", plane=plane or ev.fam.build(x, n)))
+    run_sweep(todo, ev.settings, out / "explore", executor=executor, scheduler=scheduler, progress=ev.progress)
+
+
+class BudgetSpent(Exception):
+    """The search has used its solves."""
 
 
 @dataclass
 class _Evaluator:
-    """The objective nlopt calls: replays the history, else checks and scores one x."""
+    """The objective nlopt calls: replays the history, else checks and scores one x. Counts
+    the solves (replayed ones too, so a resumed search takes the same path) against ``budget``."""
 
     fam: Family
     shape: str
@@ -273,72 +388,101 @@ class _Evaluator:
     hist: History
     evaluate_fn: Callable[[Candidate, EvalSettings], dict[str, Any]]
     progress: bool
+    budget: int = 10 ** 9
     penalty_floor: float = 1.0e4  # mK: far above any real FoM, and finite
+    solves: int = 0
+    _replayed: set = field(default_factory=set)
 
     def penalty(self) -> float:
         finite = [r["fom_mk"] for r in self.hist.rows if r["status"] == "ok"]
         return max([self.penalty_floor] + [10 * f for f in finite])
 
-    def __call__(self, x: np.ndarray, grad: np.ndarray, n: int | None) -> float:
+    def __call__(self, x: np.ndarray, grad: np.ndarray, n: int | None, phase: str = "local",
+                 plane: GroundPlane | None = None, name: str | None = None) -> float:
         _zero(grad)
         seen = self.hist.get(n, x)
         if seen is not None:  # replay: nlopt sees exactly what it saw before
+            key = History.key(n, x)
+            if seen["status"] in ("ok", "failed") and key not in self._replayed:
+                self._replayed.add(key)
+                self.solves += 1
             return float(seen["objective"])
+        why = self.reason(x, n)
+        if why is None and self.solves >= self.budget:
+            raise BudgetSpent
         t0 = time.perf_counter()
         row: dict[str, Any] = {"integer": n, "x": [float(v) for v in x], "params": self.fam.params(x, n),
-                               "area_m2": self.fam.area(x, n)}
-        row.update(self._score(x, n, row["area_m2"]))
+                               "area_m2": self.fam.area(x, n), "phase": phase, "mesh_m": self.settings.spacing}
+        row.update({"status": "invalid", "fom_mk": None, "error": why} if why else self._score(x, n, plane, name))
+        if row["status"] in ("ok", "failed"):
+            self.solves += 1
+            self._replayed.add(History.key(n, x))
         row["objective"] = row["fom_mk"] if row["status"] == "ok" else self.penalty()
         row["seconds"] = round(time.perf_counter() - t0, 2)
         self.hist.add(row)
         if self.progress:
             f = f"{row['fom_mk']:.1f} mK" if row["fom_mk"] is not None else row["status"]
             which = f" {self.fam.integer}={n}" if self.fam.integer else ""
-            print(f"  eval {len(self.hist.rows):3d}{which} x={np.round(x, 3).tolist()} area={row['area_m2']:.1f} m^2"
-                  f" -> {f} ({row['seconds']:.0f} s)", file=sys.stderr, flush=True)
+            print(f"  eval {len(self.hist.rows):3d} [{phase}, solve {self.solves}/{self.budget}]{which} "
+                  f"x={np.round(x, 3).tolist()} area={row['area_m2']:.1f} m^2 -> {f} ({row['seconds']:.0f} s)",
+                  file=sys.stderr, flush=True)
         return float(row["objective"])
 
-    def _score(self, x: np.ndarray, n: int | None, area: float) -> dict[str, Any]:
-        if any(v > 0 for v in self.fam.validity(x, n)) or not np.all(np.isfinite(x)):
-            return {"status": "invalid", "fom_mk": None, "error": "outside the family's valid region"}
-        if area > self.max_area * (1 + 1e-9):
-            return {"status": "over-budget", "fom_mk": None, "error": "metal area above the budget"}
+    def reason(self, x: np.ndarray, n: int | None) -> str | None:
+        """Why x cannot be solved (None if it can): invalid, over the budget, or finer than the mesh."""
+        if not np.all(np.isfinite(x)) or any(v > 0 for v in self.fam.validity(x, n)):
+            return "outside the family's valid region"
+        if self.fam.area(x, n) > self.max_area * (1 + 1e-9):
+            return "metal area above the budget"
         try:
             plane = self.fam.build(x, n)
         except ShapeError as exc:
-            return {"status": "invalid", "fom_mk": None, "error": str(exc)}
+            return str(exc)
         spacing = self.settings.spacing
         keeps = getattr(ENGINES[self.settings.engine], "mesh_keeps_outline", False)
         if spacing and (why := too_fine_for(plane, spacing, keeps)):  # the search would exploit the model
-            return {"status": "invalid", "fom_mk": None, "error": why}
+            return why
+        return None
+
+    def _score(self, x: np.ndarray, n: int | None, plane: GroundPlane | None, name: str | None) -> dict[str, Any]:
+        plane = plane or self.fam.build(x, n)
         if self.progress:
             print(f"  eval {len(self.hist.rows) + 1:3d}: solving {plane.describe()} ...", file=sys.stderr, flush=True)
-        res = self.evaluate_fn(Candidate(f"{self.shape}-{len(self.hist.rows)}", plane=plane), self.settings)
+        res = self.evaluate_fn(Candidate(name or f"{self.shape}-{len(self.hist.rows)}", plane=plane), self.settings)
         fom = res.get("lst_averaged_fom_mk")
         if res.get("status") == "ok" and fom is not None and math.isfinite(fom):
-            return {"status": "ok", "fom_mk": float(fom), "name": plane.describe()}
+            return {"status": "ok", "fom_mk": float(fom), "name": name or plane.describe()}
         return {"status": "failed", "fom_mk": None, "error": str(res.get("error", "non-finite FoM"))}
 
 
-def _run_nlopt(fam: Family, n: int | None, ev: _Evaluator, algorithm: str, maxeval: int, max_area: float,
-               progress: bool) -> None:
-    """One nlopt run over the continuous parameters at integer value ``n``."""
+def _run_nlopt(fam: Family, n: int | None, ev: _Evaluator, algorithm: str, stop_at_solves: int, max_area: float,
+               progress: bool, x0: np.ndarray | None = None, phase: str = "local") -> None:
+    """One nlopt run over the continuous parameters at integer value ``n``, until the
+    evaluator has made ``stop_at_solves`` solves (or nlopt converges)."""
     import nlopt
 
     opt = nlopt.opt(getattr(nlopt, algorithm), len(fam.names))
     opt.set_lower_bounds(list(fam.lower))
     opt.set_upper_bounds(list(fam.upper))
-    opt.set_min_objective(lambda x, g: ev(x, g, n))
+
+    def objective(x, g):
+        if ev.solves >= stop_at_solves and ev.hist.get(n, x) is None and ev.reason(x, n) is None:
+            raise nlopt.ForcedStop  # this run's solves are spent
+        return ev(x, g, n, phase=phase)
+
+    opt.set_min_objective(objective)
     opt.add_inequality_constraint(lambda x, g: _zero(g) + fam.area(x, n) - max_area, 1e-6 * max_area)
-    x0 = np.clip(fam.start(max_area, n), fam.lower, fam.upper)
+    x0 = np.clip(fam.start(max_area, n) if x0 is None else x0, fam.lower, fam.upper)
     for i in range(len(fam.validity(x0, n))):
         opt.add_inequality_constraint(lambda x, g, i=i: _zero(g) + fam.validity(x, n)[i], 1e-9)
-    opt.set_maxeval(maxeval)
+    opt.set_maxeval(10 * max(1, stop_at_solves))  # invalid proposals cost no solve; this only bounds a stuck run
     opt.set_xtol_rel(1e-3)
     if algorithm == "LN_COBYLA":
         opt.set_initial_step([0.15 * (u - l) for l, u in zip(fam.lower, fam.upper)])
     try:
         opt.optimize(x0)
+    except (nlopt.ForcedStop, BudgetSpent):
+        pass
     except (nlopt.RoundoffLimited, ValueError, RuntimeError) as exc:
         if progress:
             print(f"  nlopt stopped early for {fam.integer}={n}: {exc}", file=sys.stderr)

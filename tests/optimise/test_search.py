@@ -50,7 +50,8 @@ def test_optimiser_nan_guard_and_resume(tmp_path):
         seen.append(p.side)
         return float("nan") if p.side == seen[0] else 100.0 + (p.side - 12.0) ** 2
     ev, calls = _fake_eval(fom)
-    res = optimise("square", 400.0, EvalSettings(), tmp_path, budget=25, evaluate_fn=ev, progress=False)
+    res = optimise("square", 400.0, EvalSettings(), tmp_path, budget=25, evaluate_fn=ev, progress=False,
+                   strategy="local")
     statuses = {r["status"] for r in res.history}
     assert all(math.isfinite(r["objective"]) for r in res.history)
     assert res.history[0]["status"] == "failed" and res.history[0]["objective"] >= 1e4  # finite penalty
@@ -59,7 +60,8 @@ def test_optimiser_nan_guard_and_resume(tmp_path):
     n_first = len(calls)
     # an interrupted run resumes from its history: the same command evaluates nothing again
     ev2, calls2 = _fake_eval(fom)
-    res2 = optimise("square", 400.0, EvalSettings(), tmp_path, budget=25, evaluate_fn=ev2, progress=False)
+    res2 = optimise("square", 400.0, EvalSettings(), tmp_path, budget=25, evaluate_fn=ev2, progress=False,
+                    strategy="local")
     assert calls2 == [] and res2.best == res.best and n_first > 0
 
 def test_optimiser_rejects_bad_requests(tmp_path):
@@ -71,7 +73,7 @@ def test_optimiser_rejects_bad_requests(tmp_path):
         optimise("square", float("nan"), EvalSettings(), tmp_path)
 
 def test_every_family_start_is_valid_and_in_budget():
-    assert set(optimisable()) == {"square", "plus", "sawtooth", "polygon-n", "star"}
+    assert set(optimisable()) == {"square", "plus", "sawtooth", "polygon-n", "star", "teeth"}
     for name in optimisable():
         fam = family(name)
         for n in fam.integer_values or (None,):

@@ -1,0 +1,106 @@
+"""The metal-vs-FoM front with a made-up FoM (no solves): budgets, presets, the PEC floor,
+the fidelity ladder, the verdicts, and a budget that bounds solves."""
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from groundplane.shapes import PRESETS, Teeth
+from optimise.evaluate import EvalSettings
+from optimise.pareto import pareto_front, verdicts, write_report
+from optimise.search import optimise
+
+
+def toy_fom(plane, mesh: float) -> float:
+    """Less metal is worse, teeth help, and a coarse mesh reads 10 % high (a level bias that keeps the ranking)."""
+    t = Teeth.member(plane)
+    teeth = t.teeth_per_side * t.tooth_height * (1 - 0.5 * t.tip_fraction) if t else 0.0
+    return (60.0 + 3e4 / plane.metal_area + 40.0 / (1.0 + teeth)) * (1.1 if mesh > 0.6 else 1.0)
+
+
+def fake_eval(calls):
+    def ev(candidate, settings):
+        calls.append((candidate.name, settings.spacing))
+        return {"status": "ok", "lst_averaged_fom_mk": toy_fom(candidate.plane, settings.spacing)}
+    return ev
+
+
+def test_pareto_front_tables_ladder_and_verdicts(tmp_path):
+    calls = []
+    search = EvalSettings().with_spacing(1.0)
+    confirm = EvalSettings()
+    front = pareto_front("teeth", [600.0, 200.0], search, confirm, tmp_path, budget=16, answer_mesh=0.35, ladder=20,
+                         evaluate_fn=fake_eval(calls), progress=False, floor=lambda s: 55.0)
+    rows = list(csv.DictReader((tmp_path / "pareto.csv").open()))
+    assert [float(r["budget_m2"]) for r in rows] == [200.0, 600.0]
+    for r in rows:
+        assert float(r["area_m2"]) <= float(r["budget_m2"]) + 1e-6 and float(r["mesh_m"]) == 0.5
+        assert 0 < int(r["evaluations"]) <= 16 and json.loads(r["design"])["shape"] == "teeth"
+        assert float(r["answer_mesh_m"]) == 0.35
+    presets = {r["preset"]: r for r in csv.DictReader((tmp_path / "presets.csv").open())}
+    assert set(presets) == set(PRESETS) | {"pec"} and float(presets["pec"]["area_m2"]) == 0.0
+    assert float(presets["pec"]["fom_mk"]) == 55.0
+    # the presets that fit a budget were searched from (the paper's designs are always scored)
+    seeded = {n for n, s in calls if s == 1.0 and n in PRESETS}
+    assert {"square-10", "plus-15", "sawtooth-10-8"} <= seeded and "sawtooth-20-16" in seeded
+    assert len(front.ladder) >= 20 and front.ladder_spearman == pytest.approx(1.0)  # a pure level bias ranks alike
+    text = "\n".join(verdicts(front))
+    assert "200 m^2" in text and "against sawtooth-10-8" in text and "x the PEC floor (55.0 mK)" in text
+    md = write_report(front, tmp_path, "test", search, confirm).read_text()
+    assert "<!-- provenance:" in md.splitlines()[0] and "Spearman **1.00**" in md
+    for f in ("pareto.png", "convergence.png", "answer-200.step", "answer-600.svg"):
+        assert (tmp_path / f).stat().st_size > 1000, f
+
+
+def test_verdict_follows_the_numbers():
+    from optimise.pareto import Front
+
+    presets = [{"preset": "sawtooth-10-8", "area_m2": 200.0, "fom_mk": 146.4}, {"preset": "pec", "area_m2": 0.0,
+                                                                                "fom_mk": 82.4}]
+    row = {"budget_m2": 200.0, "area_m2": 199.0, "evaluations": 200, "design": "{}"}
+    good = verdicts(Front([{**row, "fom_mk": 100.0}], presets))[0]
+    assert "32% lower, at least 25%" in good
+    short = verdicts(Front([{**row, "fom_mk": 130.0}], presets))[0]
+    assert "11% lower, short of 25%" in short
+    worse = verdicts(Front([{**row, "fom_mk": 150.0}], presets))[0]
+    assert "did not beat it" in worse
+
+
+def test_budget_bounds_solves_across_integer_values(tmp_path):
+    """Issue 25: --budget 2 on the sawtooth family ran one solve per teeth value (5)."""
+    for strategy in ("local", "global"):
+        calls = []
+        optimise("sawtooth", 300.0, EvalSettings().with_spacing(1.0), tmp_path / strategy, budget=2,
+                 evaluate_fn=fake_eval(calls), progress=False, strategy=strategy)
+        assert len(calls) == 2, strategy
+
+
+def test_global_search_finds_the_basin_a_local_start_misses(tmp_path):
+    """A FoM with a far basin (small squares) and a near one (where the local start sits):
+    the global search reaches the far one through the presets and the exploration."""
+    def fom(plane):
+        return min((plane.side - 8.0) ** 2 + 10.0, (plane.side - 27.0) ** 2 + 40.0)
+
+    def ev(calls):
+        return lambda c, s: calls.append(c.plane) or {"status": "ok", "lst_averaged_fom_mk": fom(c.plane)}
+    local, glob = [], []
+    r1 = optimise("square", 900.0, EvalSettings(), tmp_path / "l", budget=20, evaluate_fn=ev(local), progress=False,
+                  strategy="local")
+    r2 = optimise("square", 900.0, EvalSettings(), tmp_path / "g", budget=30, evaluate_fn=ev(glob), progress=False)
+    assert r1.best["fom_mk"] > 30 and r2.best["fom_mk"] == pytest.approx(10.0, abs=0.5)
+    assert len(glob) <= 30 and any(np.isclose(p.side, 10.0) for p in glob)  # square-10 was scored as a seed
+    assert {r["phase"] for r in r2.history} >= {"seed", "explore", "refine-1"}
+    # the presets are solved as themselves (the same beams as presets.csv), not as family members
+    assert any(p is PRESETS["square-10"] for p in glob)
+
+
+def test_pareto_refuses_bad_budgets(capsys):
+    from groundplane.cli import main
+
+    assert main(["optimise", "--shape", "teeth", "--pareto", "100", "-5", "-o", "x"]) == 2
+    assert "metal budgets must be positive" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:  # argparse: one or the other
+        main(["optimise", "--shape", "teeth", "--pareto", "100", "--max-area", "50", "-o", "x"])
+    assert exc.value.code == 2
+
