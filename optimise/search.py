@@ -236,6 +236,7 @@ def optimise(
     strategy: str = "global",
     executor: str = "local",
     scheduler: str | None = None,
+    objective: dict[str, Any] | None = None,
 ) -> OptimiseResult:
     """Minimise the LST-averaged FoM of ``shape`` with metal area <= ``max_area`` (m^2), in at
     most ``budget`` solves (designs that are invalid or over the budget cost none).
@@ -247,7 +248,8 @@ def optimise(
     start point, one run per integer value, the solves shared between them. With
     ``executor`` "dask" the exploration's designs are solved in parallel on the cluster first.
     The best ``confirm_top`` are re-solved at ``confirm_mesh`` (or with ``confirm_settings``)
-    and the answer is the best there.
+    and the answer is the best there. ``objective`` names what ``evaluate_fn`` returns when it
+    is not the plain FoM (e.g. the mean over soils), so a resume refuses another one.
 
     Raises
     ------
@@ -269,7 +271,8 @@ def optimise(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     same_search(out, {"shape": shape, "max_area": max_area, "settings": settings.identity(),
-                      **({"strategy": strategy} if strategy != "local" else {})})
+                      **({"strategy": strategy} if strategy != "local" else {}),
+                      **({"objective": objective} if objective else {})})
     ev = _Evaluator(fam, shape, max_area, settings, History(out / "history.jsonl"),
                     evaluate_fn or (lambda c, s: evaluate(c, s, progress=progress)), progress, budget=budget)
     if strategy == "global":

@@ -104,3 +104,24 @@ def test_pareto_refuses_bad_budgets(capsys):
         main(["optimise", "--shape", "teeth", "--pareto", "100", "--max-area", "50", "-o", "x"])
     assert exc.value.code == 2
 
+
+
+def test_robust_search_minimises_over_the_soils_and_reports_both(tmp_path):
+    """A made-up FoM where wet soil favours bigger squares than dry soil: the robust answer's
+    mean over the grid is no worse than the nominal answer's."""
+    from optimise.robust import SOIL_GRID, robust_study, write_robust_report
+
+    def ev(c, s):
+        best_side = 10.0 + 30.0 * s.soil.sigma  # 10.15 m on dry soil .. 11.5 on wet
+        return {"status": "ok", "lst_averaged_fom_mk": 100.0 + (c.plane.side - best_side) ** 2 * (1 + s.soil.sigma * 40)}
+    nominal, robust, table = robust_study("square", 400.0, EvalSettings(), tmp_path, budget=14, evaluate_fn=ev,
+                                          progress=False)
+    assert len(table) == len(SOIL_GRID) == 5
+    mean = {w: np.mean([r[f"{w}_fom_mk"] for r in table]) for w in ("nominal", "robust")}
+    assert mean["robust"] <= mean["nominal"] + 1e-6
+    md = write_robust_report("square", 400.0, "mean", nominal, robust, table, tmp_path / "robust.md", "test",
+                             EvalSettings()).read_text()
+    assert "| 2.5 | 0.005 |" in md and ("lower, as its objective asks" in md or "not lower" in md)
+    # the robust search's directory refuses a resume with another objective
+    with pytest.raises(ValueError, match="other settings"):
+        optimise("square", 400.0, EvalSettings(), tmp_path / "robust", budget=14, evaluate_fn=ev, progress=False)
