@@ -19,7 +19,19 @@ from .beam import Beam
 from .design import EXCITATION_AZIMUTH_DEG
 from .errors import BeamFormatError, SettingsError, UserInputError
 from .options import option
-from .sky import MRO, T_CMB_K, HorizonSky, Site, horizon_sky, lst_grid
+from .sky import (
+    MRO,
+    SITES,
+    SKY_MODELS,
+    T_CMB_K,
+    HorizonSky,
+    Site,
+    horizon_sky,
+    horizon_weights,
+    lst_grid,
+    site_by_name,
+    tabulated_sky,
+)
 
 
 @dataclass(frozen=True)
@@ -57,7 +69,14 @@ class FomSettings:
     n_terms: int = option(paper.LINLOG_TERMS, "LinLog terms", flag="--terms")
     antenna_azimuth_deg: float = option(EXCITATION_AZIMUTH_DEG, "excitation axis azimuth from North through East "
                                         "(deg)", flag="--antenna-azimuth", metavar="DEG")
-    site: Site = MRO
+    site: Site = option(MRO, f"observing site: {', '.join(SITES)} (or --lat and --lon)", parse=site_by_name,
+                        metavar="NAME")
+    lat_deg: float | None = option(None, "site latitude (deg, geodetic), with --lon: a site not in --site's list",
+                                   flag="--lat", metavar="DEG")
+    lon_deg: float | None = option(None, "site east longitude (deg), with --lat", flag="--lon", metavar="DEG")
+    sky: str = option("haslam", "sky model: haslam (the 408 MHz map scaled by (nu/408)^-beta, the paper's), gsm2008 "
+                      "or lfsm (maps at 40-100 and 408 MHz, each pixel interpolated by a cubic spline in ln T - ln nu)",
+                      choices=tuple(SKY_MODELS))
     n_lst: int = option(360, "LST bins over 24 h")
     lst_bin_hours: float = option(paper.DATA_LST_BIN_HOURS, "average the simulated spectra into LST bins this wide "
                                   "(h) before the fit, as drift-scan data are binned (the paper fits data binned in "
@@ -83,6 +102,17 @@ class FomSettings:
         if not (math.isfinite(self.beta) and abs(self.beta) <= MAX_BETA):
             raise SettingsError(f"--beta {self.beta:g}: a sky spectral index is a few (the paper's 2.55); "
                                 f"|beta| <= {MAX_BETA:g} is accepted")
+        if (self.lat_deg is None) != (self.lon_deg is None):
+            raise SettingsError("--lat and --lon go together (a site is both)")
+        if self.lat_deg is not None:
+            if not (math.isfinite(self.lat_deg) and abs(self.lat_deg) <= 90 and math.isfinite(self.lon_deg)):
+                raise SettingsError(f"--lat {self.lat_deg:g} --lon {self.lon_deg:g}: latitude must be -90..90 deg, "
+                                    "longitude finite")
+            object.__setattr__(self, "site", Site(f"lat {self.lat_deg:g} lon {self.lon_deg:g}", self.lat_deg,
+                                                  self.lon_deg))
+        if self.sky != "haslam" and self.subtract_cmb:
+            raise SettingsError(f"--subtract-cmb scales the Haslam map without its CMB; --sky {self.sky} gives "
+                                "the sky at each frequency (CMB included) and is not scaled")
         if self.lst_bin_hours < 0:
             raise SettingsError(f"--lst-bin {self.lst_bin_hours:g} h must be >= 0 (0: no binning)")
         if self.lst_bin_hours:
@@ -103,6 +133,9 @@ class FomSettings:
         d["fit_band_mhz"] = list(self.fit_band_mhz)
         if not self.lst_bin_hours:  # unbinned settings keep the identity (sweep keys) they always had
             del d["lst_bin_hours"]
+        for key, default in (("sky", "haslam"), ("lat_deg", None), ("lon_deg", None)):  # nor do the new defaults
+            if d[key] == default:
+                del d[key]
         return d
 
 
@@ -181,18 +214,48 @@ def beam_sky_products(beam: Beam, sky: HorizonSky) -> tuple[np.ndarray, np.ndarr
     return gw @ t.T, gw.sum(axis=1), t @ w.ravel()
 
 
+def model_sky_products(beam: Beam, settings: FomSettings, progress: bool = False,
+                       at_mhz: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(sum G w T_nu [f, lst], sum G w [f], LST hours) for a tabulated sky model: each
+    frequency's map (or every frequency at ``at_mhz``) resampled at every LST."""
+    hemi, w = _hemisphere(beam)
+    model = tabulated_sky(settings.sky)
+    maps = model.maps_at(beam.freqs_mhz if at_mhz is None else [at_mhz])  # refuses a band it lacks, before minutes
+    hw = horizon_weights(hemi.theta_deg, hemi.phi_deg, lsts_deg=lst_grid(settings.n_lst), site=settings.site,
+                         antenna_azimuth_deg=settings.antenna_azimuth_deg, nside=model.nside, progress=progress)
+    gw = hemi.gain.reshape(hemi.freqs_mhz.size, -1) * w.reshape(1, -1)
+    if at_mhz is not None:
+        maps = np.repeat(maps, gw.shape[0], axis=0)
+    return hw.products(gw, maps), gw.sum(axis=1), hw.lst_hours
+
+
+def sky_products(beam: Beam, settings: FomSettings, progress: bool = False
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(sum G w T [f, lst], sum G w [f], LST hours) on the settings' sky; for Haslam T is the
+    408 MHz map (scaled per frequency afterwards), for a model the sky at each frequency."""
+    if settings.sky == "haslam":
+        sky = sky_for(beam, settings, progress=progress)
+        gwt, gw, _ = beam_sky_products(beam, sky)
+        return gwt, gw, sky.lst_hours
+    return model_sky_products(beam, settings, progress)
+
+
 def antenna_temperature(
     beam: Beam, settings: FomSettings = FomSettings(), sky: HorizonSky | None = None
 ) -> np.ndarray:
     """T_ant [f, lst] in K: the beam-weighted sky above the horizon (SPEC 3.4)."""
-    sky = sky or sky_for(beam, settings)
-    gwt, gw, _ = beam_sky_products(beam, sky)
+    if sky is not None or settings.sky == "haslam":
+        gwt, gw, _ = beam_sky_products(beam, sky or sky_for(beam, settings))
+    else:
+        gwt, gw, _ = model_sky_products(beam, settings)
     return _t_ant_from_products(beam.freqs_mhz, gwt, gw, settings)
 
 
 def _t_ant_from_products(freqs, gwt, gw, settings: FomSettings) -> np.ndarray:
     scale = (np.asarray(freqs) / 408.0) ** (-settings.beta)
-    if settings.subtract_cmb:
+    if settings.sky != "haslam":  # a model's maps are the sky at each frequency already
+        t = gwt
+    elif settings.subtract_cmb:
         # T_sky = (T408 - T_cmb) s(nu) + T_cmb
         t = scale[:, None] * (gwt - T_CMB_K * gw[:, None]) + T_CMB_K * gw[:, None]
     else:
@@ -283,14 +346,14 @@ def figure_of_merit(
 ) -> FomResult:
     """The FoM of a beam. With ``correction_beam`` the spectra are first divided by the
     beam-correction factor computed from that beam model (Mozdzen et al. 2019)."""
-    sky = sky_for(beam, settings, progress=progress)
-    t_ant = antenna_temperature(beam, settings, sky)
+    gwt, gw, lst_hours = sky_products(beam, settings, progress)
+    t_ant = _t_ant_from_products(beam.freqs_mhz, gwt, gw, settings)
     extra: dict[str, Any] = {}
     if correction_beam is not None:
         b = beam_correction_factor(correction_beam, settings, freqs_mhz=beam.freqs_mhz)
         t_ant = t_ant / b
         extra["beam_corrected_with"] = correction_beam.meta.get("source", "beam")
-    result = fom_from_spectra(beam.freqs_mhz, t_ant, settings, sky.lst_hours)
+    result = fom_from_spectra(beam.freqs_mhz, t_ant, settings, lst_hours)
     result.extra.update(extra)
     return result
 
@@ -308,11 +371,13 @@ def beam_correction_factor(
     must be one of the beam's frequencies; ``freqs_mhz`` (default: the beam's) must be
     too, so a correction computed from a model beam can be applied to another beam's spectra.
     """
-    sky = sky_for(beam, settings)
-    gwt, _, _ = beam_sky_products(beam, sky)
     if nu_ref_mhz is None:
         nu_ref_mhz = float(beam.freqs_mhz[np.argmin(np.abs(beam.freqs_mhz - settings.nu0_mhz))])
     iref = _freq_index(beam, nu_ref_mhz)
+    if settings.sky == "haslam":  # the 408 MHz map: its scale to nu_ref cancels in the ratio
+        gwt, _, _ = beam_sky_products(beam, sky_for(beam, settings))
+    else:
+        gwt, _, _ = model_sky_products(beam, settings, at_mhz=nu_ref_mhz)
     b = gwt / gwt[iref][None, :]
     if freqs_mhz is None:
         return b

@@ -171,6 +171,9 @@ def coerce(o: Option, v: Any, where: str = "") -> Any:
         return tuple(_number(o, x, t, where) for x, t in zip(v, types))
     if o.hint in (int, float):
         return _number(o, v, o.hint, where)
+    if typing.get_origin(o.hint) in (typing.Union, getattr(__import__("types"), "UnionType", None)) \
+            and float in typing.get_args(o.hint):  # an optional number (None: not given)
+        return _number(o, v, float, where)
     if o.parse is not None and isinstance(v, (list, tuple)):  # e.g. a list of frequencies
         return tuple(_number(o, x, float, where) for x in v)
     raise ConfigError(f"{where}{o.key}: cannot read {v!r}")

@@ -11,7 +11,7 @@ import numpy as np
 
 from .beam import Beam
 from .fom import FomSettings
-from .sky import T_CMB_K, load_sky_map, location, lst_times
+from .sky import T_CMB_K, load_sky_map, location, lst_times, tabulated_sky
 
 
 def reference_antenna_temperature(beam: Beam, settings: FomSettings, lsts_deg: np.ndarray) -> np.ndarray:
@@ -22,7 +22,9 @@ def reference_antenna_temperature(beam: Beam, settings: FomSettings, lsts_deg: n
     from scipy.interpolate import RegularGridInterpolator
 
     hemi = beam.upper_hemisphere()
-    sky = load_sky_map()
+    model = tabulated_sky(settings.sky) if settings.sky != "haslam" else None
+    maps = model.maps_at(hemi.freqs_mhz) if model else None  # [f, pix]: the sky at each frequency
+    sky = load_sky_map() if model is None else maps[0]
     npix = sky.size
     nside = hp.npix2nside(npix)
     l, b = hp.pix2ang(nside, np.arange(npix), lonlat=True)
@@ -41,7 +43,9 @@ def reference_antenna_temperature(beam: Beam, settings: FomSettings, lsts_deg: n
         phi = (settings.antenna_azimuth_deg - az[up]) % 360.0
         g = interp(np.column_stack([theta, phi])).T  # [f, pix]
         t408 = sky[up]
-        if settings.subtract_cmb:
+        if maps is not None:
+            tsky = maps[:, up]
+        elif settings.subtract_cmb:
             tsky = scale[:, None] * (t408 - T_CMB_K)[None, :] + T_CMB_K
         else:
             tsky = scale[:, None] * t408[None, :]

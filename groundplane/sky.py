@@ -36,8 +36,33 @@ class Site:
     lon_deg: float = paper.MRO_LONGITUDE_DEG
     height_m: float = 0.0
 
+    def __str__(self) -> str:
+        return self.name
+
 
 MRO = Site()
+# Sites of global 21-cm experiments, each with where its coordinates come from. Heights are
+# kept 0 as for the MRO (the FoM's sky does not depend on a site's height at this level).
+SITES: dict[str, tuple[Site, str]] = {
+    "MRO": (MRO, "EDGES, Murchison Radio-astronomy Observatory, Western Australia: the paper's site (SPEC)"),
+    "KAROO": (Site("KAROO", -30.721526, 21.428304),
+              "the Karoo radio reserve, South Africa (REACH, HERA): HERA's location in pyuvdata 3.2's known "
+              "telescopes (from hera_mc); REACH's own coordinates are not in our sources"),
+    "MARS": (Site("MARS", 79.37980, -90.99885),
+             "MIST at the McGill Arctic Research Station, Axel Heiberg Island, Canada: the site given in the MIST "
+             "soil paper (arXiv:2504.14444)"),
+    "OVRO": (Site("OVRO", 37.239777, -118.281667),
+             "LEDA / OVRO-LWA, Owens Valley Radio Observatory, California: OVRO-LWA's location in pyuvdata 3.2's "
+             "known telescopes"),
+}
+
+
+def site_by_name(name: str) -> Site:
+    """A site of :data:`SITES` by name (any case)."""
+    key = name.strip().upper()
+    if key not in SITES:
+        raise UserInputError(f"--site {name}: unknown site; choose one of {', '.join(SITES)}, or give --lat and --lon")
+    return SITES[key][0]
 
 
 @lru_cache(maxsize=8)
@@ -219,6 +244,26 @@ def horizon_sky(
     return hs
 
 
+def _galactic_grid(theta: np.ndarray, phi: np.ndarray, lsts: np.ndarray, site: Site, antenna_azimuth_deg: float,
+                   progress: bool, what: str):
+    """(index, l, b) in deg of every grid direction at each LST (astropy: AltAz -> Galactic at
+    the time each LST occurs), with a progress bar: the slow part of a horizon-frame sky."""
+    alt, az = antenna_to_horizon(theta, phi, antenna_azimuth_deg)
+    times = lst_times(lsts, site)
+    bar = None
+    if progress:
+        from .progress import Progress
+
+        bar = Progress(lsts.size, what, "LST")
+    for i in range(lsts.size):
+        l, b = horizon_to_galactic(alt, az, [times[i]], site)
+        yield i, l[0], b[0]
+        if bar:
+            bar.update()
+    if bar:
+        bar.close()
+
+
 def _compute_horizon_sky(path: Path, theta: np.ndarray, phi: np.ndarray, lsts: np.ndarray, site: Site,
                          antenna_azimuth_deg: float, progress: bool) -> np.ndarray:
     """T408 [LST, theta, phi] by transforming every grid direction to Galactic (astropy)
@@ -226,21 +271,10 @@ def _compute_horizon_sky(path: Path, theta: np.ndarray, phi: np.ndarray, lsts: n
     import healpy as hp
 
     sky = load_sky_map(path)
-    alt, az = antenna_to_horizon(theta, phi, antenna_azimuth_deg)
-    times = lst_times(lsts, site)
     t408 = np.empty((lsts.size, theta.size, phi.size), dtype=np.float32)
-    bar = None
-    if progress:
-        from .progress import Progress
-
-        bar = Progress(lsts.size, "sky -> horizon frame (once per grid)", "LST")
-    for i in range(lsts.size):
-        l, b = horizon_to_galactic(alt, az, [times[i]], site)
-        t408[i] = hp.get_interp_val(sky, l[0], b[0], lonlat=True)
-        if bar:
-            bar.update()
-    if bar:
-        bar.close()
+    for i, l, b in _galactic_grid(theta, phi, lsts, site, antenna_azimuth_deg, progress,
+                                  "sky -> horizon frame (once per grid)"):
+        t408[i] = hp.get_interp_val(sky, l, b, lonlat=True)
     return t408
 
 
@@ -282,3 +316,153 @@ def _write_sky_cache(file: Path, t408: np.ndarray) -> None:
 def _write_checksum(file: Path, t408: np.ndarray) -> None:
     with atomic_path(file.with_suffix(".crc.json"), suffix=".json.tmp") as tmp:
         tmp.write_text(json.dumps({"crc32": _crc(t408), "shape": list(t408.shape)}))
+
+
+# ------------------------------------------------------------------ other sky models
+SKY_MODELS: dict[str, str | None] = {
+    "haslam": None,  # the 408 MHz map scaled by (nu / 408)^-beta: the paper's sky
+    "gsm2008": "gsm2008_nside0064_galactic_ring_K_40-100MHz.fits",
+    "lfsm": "lfsm_nside0064_galactic_ring_K_40-100MHz.fits",
+}
+MODEL_NODES_MHZ = (40.0, 50.0, 60.0, 70.0, 80.0, 90.0, 100.0, 408.0)  # the tabulated maps (fields 0-7)
+
+
+@dataclass(frozen=True)
+class TabulatedSky:
+    """A sky model given as maps at a few frequencies (GSM2008, LFSM; package data). Between
+    them each pixel's ln T is a cubic spline in ln nu (not-a-knot) through its tabulated
+    values: exact at the tabulated frequencies and smooth (C2) between them, so it adds no
+    spectral structure of its own (linear interpolation in ln T - ln nu would: its kinks at
+    every 10 MHz leave LinLog residuals of a few 1e-4 of T on GSM2008)."""
+
+    name: str
+    nodes_mhz: np.ndarray
+    log_maps: np.ndarray  # [node, pix], ln K
+    _spline: dict = field(default_factory=dict, compare=False, repr=False)
+
+    @property
+    def nside(self) -> int:
+        import healpy as hp
+
+        return int(hp.npix2nside(self.log_maps.shape[1]))
+
+    def maps_at(self, freqs_mhz) -> np.ndarray:
+        """T [f, pix] (K) at each frequency, which must lie within the tabulated range."""
+        from scipy.interpolate import CubicSpline
+
+        f = np.atleast_1d(np.asarray(freqs_mhz, dtype=float))
+        lo, hi = float(self.nodes_mhz[0]), float(self.nodes_mhz[-1])
+        if f.min() < lo - 1e-9 or f.max() > hi + 1e-9:
+            raise UserInputError(f"--sky {self.name} is tabulated at {lo:g}-{hi:g} MHz only; the beam has "
+                                 f"{f.min():g}-{f.max():g} MHz (use --sky haslam, or --freqs within the range)")
+        if "s" not in self._spline:
+            self._spline["s"] = CubicSpline(np.log(self.nodes_mhz), self.log_maps, axis=0)
+        return np.exp(self._spline["s"](np.log(f)))
+
+
+@lru_cache(maxsize=4)
+def tabulated_sky(name: str) -> TabulatedSky:
+    """One of the package's tabulated sky models by name (``SKY_MODELS``)."""
+    import healpy as hp
+
+    if SKY_MODELS.get(name) is None:
+        raise UserInputError(f"--sky {name}: not a tabulated sky model (choose one of "
+                             f"{', '.join(k for k, v in SKY_MODELS.items() if v)})")
+    path = Path(str(resources.files("groundplane") / "data" / SKY_MODELS[name]))
+    maps = np.array([hp.read_map(str(path), field=i, dtype=np.float64) for i in range(len(MODEL_NODES_MHZ))])
+    if not (np.all(np.isfinite(maps)) and maps.min() > 0):
+        raise UserInputError(f"{path}: sky model has non-finite or non-positive pixels")
+    return TabulatedSky(name, np.array(MODEL_NODES_MHZ), np.log(maps))
+
+
+@dataclass(frozen=True)
+class HorizonWeights:
+    """Where each beam-grid direction falls on a HEALPix map at each LST: the 4 pixels
+    ``pix[lst, dir, 4]`` and bilinear weights ``weight[lst, dir, 4]`` (healpy's), for any map
+    of that nside. A sky that changes with frequency is then sampled per frequency without
+    redoing the astropy transform."""
+
+    lsts_deg: np.ndarray
+    pix: np.ndarray
+    weight: np.ndarray
+    key: str
+
+    @property
+    def lst_hours(self) -> np.ndarray:
+        return self.lsts_deg / 15.0
+
+    def products(self, gw: np.ndarray, maps: np.ndarray) -> np.ndarray:
+        """sum over directions of gw[f, dir] T_f(lst, dir) -> [f, lst], with T_f = maps[f]
+        resampled at each LST (a sparse [dir, pix] matrix per LST: one product per LST)."""
+        import scipy.sparse as sp
+
+        n_dir, n_pix = self.pix.shape[1], maps.shape[1]
+        rows = np.repeat(np.arange(n_dir), 4)
+        out = np.empty((gw.shape[0], self.pix.shape[0]))
+        for i in range(self.pix.shape[0]):
+            m = sp.csr_matrix((self.weight[i].ravel().astype(np.float64), (rows, self.pix[i].ravel())),
+                              shape=(n_dir, n_pix))
+            out[:, i] = np.einsum("fp,fp->f", (m.T @ gw.T).T, maps)
+        return out
+
+
+def horizon_weights(theta_deg: np.ndarray, phi_deg: np.ndarray, *, lsts_deg: np.ndarray, site: Site,
+                    antenna_azimuth_deg: float, nside: int, progress: bool = False) -> HorizonWeights:
+    """:class:`HorizonWeights` for a beam grid, from memory, disk (checked like the horizon sky)
+    or computed (minutes: the astropy transform of every direction at every LST)."""
+    import healpy as hp
+
+    theta, phi, lsts = (np.asarray(a, dtype=float) for a in (theta_deg, phi_deg, lsts_deg))
+    ident = {"v": 1, "kind": "weights", "site": [site.lat_deg, site.lon_deg, site.height_m], "nside": int(nside),
+             "theta": hashlib.sha256(theta.tobytes()).hexdigest()[:16],
+             "phi": hashlib.sha256(phi.tobytes()).hexdigest()[:16],
+             "lst": hashlib.sha256(lsts.tobytes()).hexdigest()[:16], "az0": float(antenna_azimuth_deg)}
+    key = hashlib.sha256(json.dumps(ident, sort_keys=True).encode()).hexdigest()[:24]
+    if key in _MEMORY:
+        return _MEMORY[key]  # type: ignore[return-value]
+    file = cache_dir() / f"horizon_weights_{key}.npz"
+    shape = (lsts.size, theta.size * phi.size, 4)
+    got = _read_weights_cache(file, shape, 12 * nside ** 2)
+    if got is None:
+        pix = np.empty(shape, dtype=np.int32)
+        weight = np.empty(shape, dtype=np.float32)
+        for i, l, b in _galactic_grid(theta, phi, lsts, site, antenna_azimuth_deg, progress,
+                                      f"HEALPix nside {nside} -> horizon frame (once per grid)"):
+            p, w = hp.get_interp_weights(nside, l.ravel(), b.ravel(), lonlat=True)
+            pix[i], weight[i] = p.T, w.T
+        _write_weights_cache(file, pix, weight)
+        got = (pix, weight)
+    hw = HorizonWeights(lsts, got[0], got[1], key)
+    if len(_MEMORY) > 8:
+        _MEMORY.clear()
+    _MEMORY[key] = hw  # type: ignore[assignment]
+    return hw
+
+
+def _read_weights_cache(file: Path, shape: tuple[int, ...], npix: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """Cached weights if whole (shapes, CRC-32 as written, pixels in range, weights summing to 1);
+    anything else is deleted and recomputed."""
+    check = file.with_suffix(".crc.json")
+    if not file.exists():
+        return None
+    try:
+        with np.load(file, allow_pickle=False) as z:
+            pix, weight = z["pix"], z["weight"]
+        ok = (pix.shape == shape and weight.shape == shape and pix.min() >= 0 and pix.max() < npix
+              and bool(np.allclose(weight.sum(axis=-1), 1.0, atol=1e-5)))
+        ok = ok and check.exists() and json.loads(check.read_text()).get("crc32") == _crc(pix) ^ _crc(weight)
+    except (OSError, ValueError, TypeError, KeyError, EOFError):
+        ok = False
+    if not ok:
+        file.unlink(missing_ok=True)
+        check.unlink(missing_ok=True)
+        return None
+    return pix, weight
+
+
+def _write_weights_cache(file: Path, pix: np.ndarray, weight: np.ndarray) -> None:
+    with atomic_path(file, suffix=".npz.tmp") as tmp:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, pix=pix, weight=weight)
+    with atomic_path(file.with_suffix(".crc.json"), suffix=".json.tmp") as tmp:
+        tmp.write_text(json.dumps({"crc32": _crc(pix) ^ _crc(weight), "shape": list(pix.shape)}))

@@ -46,13 +46,21 @@ def load_commands() -> None:
         ep.load()
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with a one-line error (what is wrong and where to look), exit status 2,
+    instead of the whole usage block first."""
+
+    def error(self, message: str):  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     """The parser with every registered sub-command attached; given the command line, only
     the sub-command it names is set up (setting one up may import what it needs: the
     engines for ``solve``), so ``groundplane fom`` starts without them."""
     load_commands()
     chosen = None if argv is None else next((a for a in argv if not a.startswith("-")), "")
-    p = argparse.ArgumentParser(prog="groundplane", description="Design ground planes for low-frequency "
+    p = _Parser(prog="groundplane", description="Design ground planes for low-frequency "
                                 "radio antennas: shapes, MoM solves, the chromaticity FoM, optimisation.")
     sub = p.add_subparsers(dest="command", required=True)
     for name in sorted(COMMANDS):

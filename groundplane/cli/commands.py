@@ -114,11 +114,15 @@ def _run_export(args: argparse.Namespace) -> int:
     return 0
 
 
-@command("convert", "read any supported beam export, write the native .npz")
+UVBEAM_SUFFIXES = (".fits", ".beamfits")
+
+
+@command("convert", "read any supported beam export, write the native .npz or a UVBeam (.fits)")
 def _setup_convert(p: argparse.ArgumentParser):
     p.add_argument("paths", nargs="+")
     p.add_argument("--format", default="auto", choices=_format_choices())
-    p.add_argument("-o", "--output", required=True)
+    p.add_argument("-o", "--output", required=True,
+                   help="beam.npz (native) or beam.fits / beam.beamfits (pyuvdata UVBeam, for pyuvsim, hera_sim, ...)")
     return _run_convert
 
 
@@ -128,7 +132,12 @@ def _run_convert(args: argparse.Namespace) -> int:
 
     note = check_output(args.output)
     beam = Beam.from_file(args.paths, args.format)
-    out = beam.save(args.output)
+    if Path(args.output).suffix.lower() in UVBEAM_SUFFIXES:
+        from solvers.io.uvbeam import write_uvbeam
+
+        out = write_uvbeam(beam, args.output)
+    else:
+        out = beam.save(args.output)
     print(f"wrote {out}{note}: {beam.freqs_mhz.size} frequencies {beam.freqs_mhz.min():g}-{beam.freqs_mhz.max():g} MHz, "
           f"{beam.theta_deg.size} x {beam.phi_deg.size} directions")
     return 0
