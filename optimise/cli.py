@@ -122,7 +122,8 @@ def _run_pareto(args: argparse.Namespace) -> int:
     answer = args.answer_mesh if args.answer_mesh is not None else (round(0.7 * mesh, 3) if mesh else None)
     out = Path(args.out)
     front = pareto_front(args.shape, args.pareto, settings, confirm, out, budget=args.budget, answer_mesh=answer or None,
-                         ladder=args.ladder, executor=args.executor, scheduler=args.scheduler)
+                         ladder=args.ladder, confirm_top=args.confirm_top, executor=args.executor,
+                         scheduler=args.scheduler)
     path = write_report(front, out, invocation(), settings, confirm)
     print("\n".join(verdicts(front)))
     print(f"report: {path}")

@@ -109,7 +109,7 @@ def fidelity_ladder(shape: str, results: dict[float, OptimiseResult], confirm: E
 
 
 def pareto_front(shape: str, budgets: list[float], settings: EvalSettings, confirm: EvalSettings, out_dir: str | Path,
-                 *, budget: int = 40, answer_mesh: float | None = None, ladder: int = LADDER_DESIGNS,
+                 *, budget: int = 40, answer_mesh: float | None = None, ladder: int = LADDER_DESIGNS, confirm_top: int = 3,
                  evaluate_fn: Callable[[Candidate, EvalSettings], dict[str, Any]] | None = None,
                  executor: str = "local", scheduler: str | None = None, progress: bool = True,
                  floor: Callable[[EvalSettings], float] = pec_floor_mk) -> Front:
@@ -123,7 +123,7 @@ def pareto_front(shape: str, budgets: list[float], settings: EvalSettings, confi
         if progress:
             print(f"pareto: budget {b:g} m^2", file=sys.stderr, flush=True)
         res = optimise(shape, b, settings, out / f"budget-{b:g}", budget=budget, evaluate_fn=evaluate_fn,
-                       progress=progress, confirm_settings=confirm, confirm_top=3, executor=executor,
+                       progress=progress, confirm_settings=confirm, confirm_top=confirm_top, executor=executor,
                        scheduler=scheduler)
         results[b] = res
         rows.append(_answer(shape, b, res, confirm, answer_mesh, evaluate_fn))
