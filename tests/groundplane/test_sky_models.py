@@ -93,3 +93,19 @@ def test_sites_move_the_sky_and_custom_coordinates_work(capsys):
     assert main(["fom", str(LOWBAND), "--site", "karoo", "--n-lst", "24", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["lst_averaged_fom_mk"] == pytest.approx(karoo)
     assert main(["fom", str(LOWBAND), "--lat", "95", "--lon", "0"]) == 2
+
+
+def test_the_mros_coordinates_by_hand_are_the_default_site():
+    beam = Beam.load(LOWBAND)
+    from groundplane.sky import MRO
+
+    default = figure_of_merit(beam, FomSettings(n_lst=24)).lst_averaged_fom_mk
+    by_hand = figure_of_merit(beam, FomSettings(n_lst=24, lat_deg=MRO.lat_deg, lon_deg=MRO.lon_deg))
+    assert by_hand.lst_averaged_fom_mk == default
+
+
+def test_an_unknown_sky_is_one_line(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["fom", str(LOWBAND), "--sky", "nonsense"])
+    err = capsys.readouterr().err.strip()
+    assert exc.value.code == 2 and len(err.splitlines()) == 1 and "invalid choice: 'nonsense'" in err
