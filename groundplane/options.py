@@ -144,8 +144,14 @@ def _number(o: Option, v: Any, t: type, where: str) -> Any:
     return float(x)
 
 
-def coerce(o: Option, v: Any, where: str = "") -> Any:
-    """One option's value from the command line (strings) or a TOML file, type-checked."""
+def coerce(o: Option, v: Any, where: str = "", strings: bool = False) -> Any:
+    """One option's value from the command line (``strings``: every value arrives as text) or
+    a TOML file (typed: a number in quotes is refused, not read), type-checked."""
+    numeric = o.hint in (int, float) or bool(o.element_types) or (
+        typing.get_origin(o.hint) in (typing.Union, getattr(__import__("types"), "UnionType", None))
+        and float in typing.get_args(o.hint))
+    if not strings and isinstance(v, str) and numeric and o.parse is None:
+        raise ConfigError(f"{where}{o.key}: expected a number, got the string {v!r} (write it without quotes)")
     if o.switch is not None:
         if not isinstance(v, bool):
             raise ConfigError(f"{where}{o.key}: expected true or false, got {v!r}")
@@ -179,7 +185,7 @@ def coerce(o: Option, v: Any, where: str = "") -> Any:
     raise ConfigError(f"{where}{o.key}: cannot read {v!r}")
 
 
-def build(cls: type, values: Mapping[str, Any], where: str = "", **fixed: Any) -> Any:
+def build(cls: type, values: Mapping[str, Any], where: str = "", strings: bool = False, **fixed: Any) -> Any:
     """``cls`` from option values keyed by TOML key (strict); missing keys take the defaults.
 
     Raises
@@ -191,7 +197,7 @@ def build(cls: type, values: Mapping[str, Any], where: str = "", **fixed: Any) -
     unknown = set(values) - set(opts)
     if unknown:
         raise ConfigError(f"{where}unknown key(s) {sorted(unknown)}; expected some of {sorted(opts)}")
-    kwargs = {opts[k].name: coerce(opts[k], v, where) for k, v in values.items()}
+    kwargs = {opts[k].name: coerce(opts[k], v, where, strings) for k, v in values.items()}
     try:
         return cls(**kwargs, **fixed)
     except SettingsError as exc:
@@ -201,7 +207,7 @@ def build(cls: type, values: Mapping[str, Any], where: str = "", **fixed: Any) -
 def from_args(cls: type, args: argparse.Namespace, **fixed: Any) -> Any:
     """``cls`` from the parsed command line: options not given take the dataclass defaults."""
     given = {o.key: getattr(args, o.key) for o in options(cls) if getattr(args, o.key, None) is not None}
-    return build(cls, given, "", **fixed)
+    return build(cls, given, "", strings=True, **fixed)
 
 
 def option_keys(cls: type) -> set[str]:

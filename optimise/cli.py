@@ -155,6 +155,8 @@ def _run_optimise(args: argparse.Namespace) -> int:
     from .report import write_report
     from .search import best_plane, optimise
 
+    for name in args.compare:  # before the search, not after it
+        preset(name)
     if args.pareto:
         return _run_pareto(args)
     if args.soil_grid:

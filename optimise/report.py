@@ -10,10 +10,17 @@ from typing import Any
 
 import numpy as np
 
+from groundplane.files import atomic_path
 from groundplane.plots import pyplot
 from groundplane.shapes import from_dict
 
 from .evaluate import RESIDUAL_LSTS_H
+
+
+def _write(path: Path, text: str) -> None:
+    """Replace a report file atomically (a kill never leaves half a report)."""
+    with atomic_path(path, suffix=".tmp" + path.suffix) as tmp:
+        tmp.write_text(text)
 
 
 def ranked(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -31,8 +38,8 @@ def write_report(rows: list[dict[str, Any]], out_dir: str | Path, title: str = "
     ok = [r for r in rows if r.get("status") == "ok"]
     paths = {"json": out / "results.json", "csv": out / "results.csv", "md": out / "report.md",
              "html": out / "report.html"}
-    paths["json"].write_text(json.dumps(rows, indent=1))
-    with open(paths["csv"], "w", newline="") as fh:
+    _write(paths["json"], json.dumps(rows, indent=1))
+    with atomic_path(paths["csv"], suffix=".tmp.csv") as tmp, open(tmp, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["rank", "name", "status", "shape", "params", "metal_area_m2", "extent_m",
                     "lst_averaged_fom_mk", "fom_smoothed_mk", "solve_s", "error"])
@@ -58,8 +65,8 @@ def write_report(rows: list[dict[str, Any]], out_dir: str | Path, title: str = "
         md += ["", "## Not scored", ""] + [f"- **{r['name']}** ({r.get('status')}): {r.get('error', '')}" for r in bad]
     if figs:
         md += ["", "## Figures", ""] + [f"![{k}]({p.name})" for k, p in figs.items()]
-    paths["md"].write_text("\n".join(md) + "\n")
-    paths["html"].write_text(_html(title, [preamble, *notes], header, cells, bad, figs))
+    _write(paths["md"], "\n".join(md) + "\n")
+    _write(paths["html"], _html(title, [preamble, *notes], header, cells, bad, figs))
     return paths
 
 

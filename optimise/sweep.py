@@ -47,7 +47,7 @@ from groundplane.errors import ConfigError, ShapeError, UserInputError
 from groundplane.files import append_jsonl, read_jsonl
 from groundplane.fom import FomSettings
 from groundplane.options import build
-from groundplane.shapes import PRESETS, from_dict
+from groundplane.shapes import PRESETS, SHAPES, from_dict
 from solvers.cli import solve_options_from_mapping
 
 from .evaluate import (
@@ -60,9 +60,6 @@ from .evaluate import (
 )
 
 __all__ = ["ConfigError", "ResultStore", "load_config", "run_sweep", "summary_table", "settings_from_tables"]
-
-CANDIDATE_KEYS = {"preset", "name", "beam", "format", "metal_area_m2", "shape"}
-
 
 def settings_from_tables(solver: dict[str, Any], fom: dict[str, Any], where: str) -> EvalSettings:
     """EvalSettings from a sweep file's ``[solver]`` and ``[fom]`` tables (strictly typed)."""
@@ -99,6 +96,8 @@ def load_config(path: str | Path) -> tuple[list[Candidate], list[dict[str, Any]]
 
 def _candidate(c: dict[str, Any], path: Path, where: str) -> Candidate:
     """One ``[[candidate]]``: a preset, a shape with its parameters, or solver export file(s)."""
+    if "name" in c and not isinstance(c["name"], str):
+        raise ConfigError(f"{where}: name must be a string, got {c['name']!r}")
     try:
         if "beam" in c:
             extra = set(c) - {"beam", "name", "format", "metal_area_m2"}
@@ -126,7 +125,13 @@ def _family(fam: dict[str, Any], where: str) -> tuple[list[Candidate], list[dict
     """Every combination of a ``[[family]]``'s listed values; impossible members become rows."""
     if "shape" not in fam:
         raise ConfigError(f"{where} needs 'shape'")
+    if fam["shape"] not in SHAPES:
+        raise ConfigError(f"{where}: unknown shape {fam['shape']!r}; choose one of {', '.join(SHAPES)}")
     keys = [k for k in fam if k != "shape"]
+    own = {p.name for p in SHAPES[fam["shape"]].parameters()}
+    if set(keys) - own:  # a typo would otherwise make every member "invalid" and the sweep empty
+        raise ConfigError(f"{where}: {fam['shape']} has no parameter(s) {sorted(set(keys) - own)}; it takes "
+                          f"{sorted(own)}")
     grids = [fam[k] if isinstance(fam[k], list) else [fam[k]] for k in keys]
     members, invalid = [], []
     for combo in itertools.product(*grids):

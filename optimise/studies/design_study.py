@@ -133,10 +133,6 @@ def _backfill(row: dict, settings: EvalSettings) -> tuple[float | None, float | 
     return (None if smoothed is None else round(smoothed, 1)), cpu
 
 
-def _fom(table: list[dict], name: str) -> float | None:
-    return next((t["our_fom_mk"] for t in table if t["preset"] == name), None)
-
-
 def conclusions(table: list[dict], column: str = "our_fom_mk") -> list[str]:
     """Conclusions (i)-(iii) of the paper, tested on our numbers (``column`` of the table)."""
     f = {t["preset"]: t.get(column) for t in table}

@@ -156,7 +156,7 @@ def test_frequencies_that_cannot_be_scored_are_refused_before_any_solve(tmp_path
     ('[fom]\nnormalise = "false"\n', r"normalise: expected true or false, got 'false'"),
     ("[solver]\nmesh = true\n", r"mesh: expected a number, got True"),
     ("[fom]\nn_lst = 3.7\n", r"n_lst: expected a whole number, got 3.7"),
-    ('[fom]\nfit_band = "55"\n', r"fit_band: expected 2 numbers"),
+    ('[fom]\nfit_band = "55"\n', r"fit_band: expected a number, got the string '55'"),
     ("[[candidate]]\npreset = 'square-10'\nside = 3\n", r"preset"),
 ])
 def test_toml_values_are_type_checked_not_coerced(tmp_path, body, msg):
@@ -177,3 +177,28 @@ def test_an_engine_that_cannot_solve_on_soil_is_refused_before_any_solve(monkeyp
     monkeypatch.setattr(SurfaceSolver, "grounds", ("pec", "free"))
     with pytest.raises(UserInputError, match="solves over infinite PEC ground only"):
         EvalSettings(engine="surface").check_scorable()
+
+
+@pytest.mark.parametrize("toml, message", [
+    ('[solver]\nmesh = "1.0"\n[[candidate]]\npreset = "square-10"\n', "mesh: expected a number, got the string '1.0'"),
+    ('[solver]\nworkers = "2"\n[[candidate]]\npreset = "square-10"\n', "workers: expected a number, got the string"),
+    ('[[family]]\nshape = "square"\nsid = [10]\n', "square has no parameter(s) ['sid']; it takes ['side']"),
+    ('[[candidate]]\nname = 123\npreset = "square-10"\n', "name must be a string, got 123"),
+])
+def test_sweep_files_are_checked_before_any_solve(tmp_path, capsys, toml, message):
+    """Issue 25 item 7: each of these solved (or said 'no candidates') before failing."""
+    from groundplane.cli import main
+
+    cfg = tmp_path / "s.toml"
+    cfg.write_text(toml)
+    assert main(["sweep", str(cfg), "-o", str(tmp_path / "out")]) == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "out" / "results.jsonl").exists()
+
+
+def test_optimise_compare_names_are_checked_before_the_search(tmp_path, capsys):
+    from groundplane.cli import main
+
+    assert main(["optimise", "--shape", "square", "--max-area", "100", "--compare", "sqaure-10",
+                 "-o", str(tmp_path / "o")]) == 2
+    assert "unknown preset 'sqaure-10'" in capsys.readouterr().err and not (tmp_path / "o").exists()
