@@ -42,3 +42,8 @@ class EngineError(SolverError):
 
 class SolveError(SolverError):
     """A solve failed; names the candidate and the reason."""
+
+
+class OutputError(GroundplaneError):
+    """A file could not be written (a full disk, a folder gone read-only): one line, exit 1;
+    what was written before it is kept."""

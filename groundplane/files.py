@@ -10,7 +10,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Iterator
 
-from .errors import UserInputError
+from .errors import OutputError, UserInputError
 
 
 @contextmanager
@@ -31,6 +31,8 @@ def atomic_path(path: str | os.PathLike, suffix: str = ".tmp") -> Iterator[Path]
         yield Path(tmp)
         os.chmod(tmp, 0o644)
         os.replace(tmp, path)
+    except OSError as exc:  # a full disk, a folder gone read-only: the old file (if any) is untouched
+        raise OutputError(f"{path}: could not be written ({exc.strerror or exc})") from exc
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
@@ -51,18 +53,49 @@ def check_output(path: str | os.PathLike) -> str:
     return " (replaced the existing file atomically)" if path.exists() else ""
 
 
+def check_output_dir(path: str | os.PathLike) -> Path:
+    """Make (if needed) and probe an output folder before any work: a command that would solve
+    for minutes and then find it cannot write its results refuses at once instead."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise UserInputError(f"{path}: is a file; give a folder for the results")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(dir=path, prefix=".write-probe.")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise UserInputError(f"{path}: cannot write results here ({exc.strerror or exc})") from None
+    return path
+
+
+def warn_once(key: str, message: str) -> None:
+    """Print a warning on stderr the first time ``key`` is seen in this process."""
+    import sys
+
+    if key not in _WARNED:
+        _WARNED.add(key)
+        print(f"groundplane: warning: {message}", file=sys.stderr)
+
+
+_WARNED: set[str] = set()
+
+
 def append_jsonl(path: str | os.PathLike, row: dict[str, Any]) -> None:
     """Append one JSON line and fsync it. A line torn by an earlier kill is ended first,
     so it stays one unreadable line instead of swallowing this row."""
     path = Path(path)
-    with open(path, "ab+") as fh:
-        if fh.tell() > 0:
-            fh.seek(-1, os.SEEK_END)
-            if fh.read(1) != b"\n":
-                fh.write(b"\n")
-        fh.write((json.dumps(row) + "\n").encode())
-        fh.flush()
-        os.fsync(fh.fileno())
+    try:
+        with open(path, "ab+") as fh:
+            if fh.tell() > 0:
+                fh.seek(-1, os.SEEK_END)
+                if fh.read(1) != b"\n":
+                    fh.write(b"\n")
+            fh.write((json.dumps(row) + "\n").encode())
+            fh.flush()
+            os.fsync(fh.fileno())
+    except OSError as exc:  # the rows before this one are whole: a rerun resumes after them
+        raise OutputError(f"{path}: could not append ({exc.strerror or exc}); the rows before are kept") from exc
 
 
 def read_jsonl(path: str | os.PathLike) -> list[dict[str, Any]]:

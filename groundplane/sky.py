@@ -90,7 +90,12 @@ def cache_dir() -> Path:
     """Where derived, recomputable data lives (GROUNDPLANE_CACHE, else ~/.cache/groundplane)."""
     d = os.environ.get("GROUNDPLANE_CACHE")
     path = Path(d) if d else Path.home() / ".cache" / "groundplane"
-    path.mkdir(parents=True, exist_ok=True)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:  # unwritable: every write to it is skipped with a warning, nothing stops
+        from .files import warn_once
+
+        warn_once("cache-dir", f"the cache folder {path} cannot be made ({exc.strerror or exc}); going on without it")
     return path
 
 
@@ -236,7 +241,7 @@ def horizon_sky(
     if t408 is None:
         t408 = _compute_horizon_sky(path, theta, phi, lsts, site, antenna_azimuth_deg, progress)
         if use_disk_cache:
-            _write_sky_cache(file, t408)
+            _keep(lambda: _write_sky_cache(file, t408))
     hs = HorizonSky(lsts, theta, phi, t408, key)
     if len(_MEMORY) > 8:
         _MEMORY.clear()
@@ -276,6 +281,18 @@ def _compute_horizon_sky(path: Path, theta: np.ndarray, phi: np.ndarray, lsts: n
                                   "sky -> horizon frame (once per grid)"):
         t408[i] = hp.get_interp_val(sky, l, b, lonlat=True)
     return t408
+
+
+def _keep(write) -> None:
+    """Write a cache entry; a cache that cannot be written (full disk, read-only) costs the
+    reuse, never the result."""
+    from .errors import OutputError
+    from .files import warn_once
+
+    try:
+        write()
+    except (OutputError, UserInputError) as exc:
+        warn_once("sky-cache", f"the sky cache cannot be written ({exc}); going on without it")
 
 
 def _crc(a: np.ndarray) -> int:
@@ -430,7 +447,7 @@ def horizon_weights(theta_deg: np.ndarray, phi_deg: np.ndarray, *, lsts_deg: np.
                                       f"HEALPix nside {nside} -> horizon frame (once per grid)"):
             p, w = hp.get_interp_weights(nside, l.ravel(), b.ravel(), lonlat=True)
             pix[i], weight[i] = p.T, w.T
-        _write_weights_cache(file, pix, weight)
+        _keep(lambda: _write_weights_cache(file, pix, weight))
         got = (pix, weight)
     hw = HorizonWeights(lsts, got[0], got[1], key)
     if len(_MEMORY) > 8:

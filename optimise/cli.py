@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from groundplane.cli import CLIError, command, invocation
+from groundplane.files import check_output_dir
 from groundplane.fom import FomSettings
 from groundplane.options import add_options, from_args, options
 from solvers.cli import add_solve_options, solve_options
@@ -47,7 +48,7 @@ def _run_sweep_cmd(args: argparse.Namespace) -> int:
     from .sweep import load_config, run_sweep, summary_table
 
     candidates, invalid, settings = load_config(args.config)
-    out = Path(args.out) if args.out else Path.cwd() / f"sweep-{Path(args.config).stem}"
+    out = check_output_dir(Path(args.out) if args.out else Path.cwd() / f"sweep-{Path(args.config).stem}")
     rows = run_sweep(candidates, settings, out, invalid=invalid, executor=args.executor,
                      scheduler=args.scheduler, retry_failed=args.retry_failed, progress=True)
     paths = write_report(rows, out, title=f"Sweep {Path(args.config).name}",
@@ -157,6 +158,7 @@ def _run_optimise(args: argparse.Namespace) -> int:
 
     for name in args.compare:  # before the search, not after it
         preset(name)
+    check_output_dir(args.out)
     if args.pareto:
         return _run_pareto(args)
     if args.soil_grid:
@@ -272,7 +274,7 @@ def _run_study_cmd(args: argparse.Namespace) -> int:
         if given:
             raise CLIError(f"study {args.name} fixes its own solver settings (it measures them); "
                            f"it does not take {', '.join(given)}")
-    out = Path(args.out) if args.out else Path.cwd() / args.name
+    out = check_output_dir(Path(args.out) if args.out else Path.cwd() / args.name)
     run_study(args.name, out, settings, invocation(), **extra)
     print(f"{args.name}: results in {out}")
     return 0

@@ -145,6 +145,19 @@ def smallest_feature(plane: GroundPlane) -> tuple[float, float]:
     return float(edges.min()), float(spans.min()) if spans.size else math.inf
 
 
+MAX_THIN_FRACTION = 0.10  # of the metal narrower than two cells: every Table 3 preset has 0 % at a 1 m mesh (a
+# tooth grows back whole from its eroded core), a cross of 1.1 m wide arms on a 1 m mesh 46 % (the search's
+# first pareto run had found it at 70 mK on that mesh: an artefact of one triangle across an arm)
+
+
+def thin_fraction(plane: GroundPlane, spacing: float) -> float:
+    """The share of the metal area narrower than two cells: what a morphological opening of
+    radius one cell (erode, then grow back with mitred corners, clipped to the plate) removes."""
+    outline = plane.outline()
+    kept = outline.buffer(-spacing).buffer(spacing, join_style="mitre").intersection(outline)
+    return float(1.0 - kept.area / outline.area)
+
+
 def too_fine_for(plane: GroundPlane, spacing: float, keeps_outline: bool = False) -> str | None:
     """Why a mesh at ``spacing`` cannot represent ``plane`` (None if it can): metal narrower
     than two cells has at most one grid line (or triangle) across it; on a wire grid
@@ -153,6 +166,10 @@ def too_fine_for(plane: GroundPlane, spacing: float, keeps_outline: bool = False
     edge, span = smallest_feature(plane)
     if span < 2 * spacing:
         return f"a {span:.2f} m wide feature is under two mesh cells ({2 * spacing:g} m)"
+    thin = thin_fraction(plane, spacing)
+    if thin > MAX_THIN_FRACTION:  # strips (long thin teeth) have no sharp vertex for the rule above
+        return (f"{100 * thin:.0f} % of the metal is narrower than two mesh cells ({2 * spacing:g} m; at most "
+                f"{100 * MAX_THIN_FRACTION:.0f} %)")
     if not keeps_outline and edge < 0.5 * spacing:
         return f"a {edge:.2f} m outline edge is under half a mesh cell ({0.5 * spacing:g} m)"
     return None

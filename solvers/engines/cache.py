@@ -14,7 +14,8 @@ from pathlib import Path
 import numpy as np
 
 from groundplane.beam import Beam, BeamFormatError
-from groundplane.files import atomic_path
+from groundplane.errors import OutputError, UserInputError
+from groundplane.files import atomic_path, warn_once
 from groundplane.sky import cache_dir
 
 TMP_SUFFIX = ".tmp.npz"
@@ -49,7 +50,11 @@ class BeamCache:
         """Store a finished beam (its meta must carry ``cache_key``) and drop its partials."""
         if beam.meta.get("cache_key") != key:
             beam = beam.with_meta(cache_key=key)
-        p = beam.save(self.path(key))
+        try:
+            p = beam.save(self.path(key))
+        except (OutputError, UserInputError) as exc:  # the result is still returned; only the reuse is lost
+            warn_once("beam-cache", f"the beam cache cannot be written ({exc}); results are not kept for reuse")
+            return self.path(key)
         shutil.rmtree(self.root / "partial" / key, ignore_errors=True)
         return p
 
@@ -73,5 +78,8 @@ class BeamCache:
 
     def put_partial(self, key: str, freq: float, gain: np.ndarray, seconds: float, **extras: float) -> None:
         """Store one solved frequency (atomically)."""
-        with atomic_path(self.root / "partial" / key / f"{freq:.6f}.npz", suffix=TMP_SUFFIX) as tmp:
-            np.savez(tmp, freq=freq, gain=gain, seconds=seconds, **extras)
+        try:
+            with atomic_path(self.root / "partial" / key / f"{freq:.6f}.npz", suffix=TMP_SUFFIX) as tmp:
+                np.savez(tmp, freq=freq, gain=gain, seconds=seconds, **extras)
+        except (OutputError, UserInputError) as exc:  # the solve goes on; an interruption then loses more
+            warn_once("beam-cache", f"the beam cache cannot be written ({exc}); results are not kept for reuse")

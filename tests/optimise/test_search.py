@@ -165,3 +165,16 @@ def test_a_search_resumed_with_other_settings_is_refused_and_a_new_confirm_mesh_
     assert len(calls) == n and res.best["confirmed_at"] == pytest.approx(0.7 * sp)
     res = optimise("sawtooth", 300.0, base, tmp_path, confirm_mesh=0.5 * sp, **kw)  # a new confirm mesh re-solves
     assert calls[n:] == [pytest.approx(0.5 * sp)] and res.best["confirmed_at"] == pytest.approx(0.5 * sp)
+
+
+def test_thin_strips_are_too_fine_for_the_mesh():
+    """Long teeth a cell wide have no sharp vertex for the spike rule; the opening catches them,
+    and leaves the paper's presets alone."""
+    from groundplane.shapes import PRESETS, Teeth
+    from optimise.search import thin_fraction, too_fine_for
+
+    arms = Teeth(5.479, 1, 1.103, 8.664, 0.403)  # found by a search at 1 m: 70 mK there
+    assert thin_fraction(arms, 1.0) > 0.4 and "narrower than two mesh cells" in too_fine_for(arms, 1.0, True)
+    assert too_fine_for(arms, 0.25, True) is None
+    for name, plane in PRESETS.items():
+        assert thin_fraction(plane, 1.0) < 0.01, name
