@@ -119,8 +119,11 @@ class FomSettings:
             per_bin = self.lst_bin_hours * self.n_lst / 24.0
             if not (self.lst_bin_hours <= 24 and abs(per_bin - round(per_bin)) < 1e-9
                     and self.n_lst % round(per_bin) == 0):
+                bins = 24.0 / self.lst_bin_hours
+                hint = (f" (--n-lst {math.lcm(self.n_lst, round(bins))} holds whole bins of it)"
+                        if abs(bins - round(bins)) < 1e-9 else "")
                 raise SettingsError(f"--lst-bin {self.lst_bin_hours:g} h must hold a whole number of the "
-                                    f"{self.n_lst} LSTs (every {24 / self.n_lst:g} h) and divide 24 h evenly; "
+                                    f"{self.n_lst} LSTs (every {24 / self.n_lst:g} h) and divide 24 h evenly{hint}; "
                                     "--lst-bin 0 scores every LST")
 
     @property

@@ -39,6 +39,10 @@ SHAPES: dict[str, type["GroundPlane"]] = {}
 """Every registered shape family, by kind (filled by ``GroundPlane.__init_subclass__``)."""
 
 
+MAX_COUNT = 1000  # teeth per side, polygon sides, star points: more is a typo (and millions of vertices)
+MIN_EXTENT_M, MAX_EXTENT_M = 1.0, 1000.0  # tip to tip
+
+
 def param(help: str, *, bounds: tuple[float, float] | None = None, values: tuple[int, ...] = (),
           minimum: float | None = 0.0, optimise: bool = True, default: Any = dataclasses.MISSING,
           parse: Callable[[str], Any] | None = None) -> Any:
@@ -171,6 +175,9 @@ class GroundPlane:
         for p in self.parameters():
             if p.type in (int, float):
                 _check_number(name, p, getattr(self, p.name))
+            if p.type is int and getattr(self, p.name) > MAX_COUNT:  # before building millions of vertices
+                raise ShapeError(f"{name}: {p.flag} {getattr(self, p.name)} is more than {MAX_COUNT}; no ground "
+                                 "plane has that many")
         for value, message in self.constraints(self.params()):
             if value > 1e-9:
                 raise ShapeError(f"{name}: {message}")
@@ -186,6 +193,10 @@ class GroundPlane:
             raise ShapeError(f"{self.describe()}: the outline is not a simple polygon ({explain_validity(poly)})")
         if poly.area <= 0:
             raise ShapeError(f"{self.describe()}: the outline has zero area")
+        if not MIN_EXTENT_M <= self.extent <= MAX_EXTENT_M:
+            raise ShapeError(f"{self.describe()}: {self.extent:.3g} m tip to tip; a ground plane is "
+                             f"{MIN_EXTENT_M:g}-{MAX_EXTENT_M:g} m (smaller than the blade, 1.25 m across, or "
+                             "larger than a kilometre is a typo)")
         exact = self.area_of(self.params())
         if exact is not None and not math.isclose(exact, poly.area, rel_tol=1e-9, abs_tol=1e-9):
             raise ShapeError(

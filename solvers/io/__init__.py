@@ -79,6 +79,8 @@ def detect_format(path: str | Path) -> str:
         raise UserInputError(f"{path}: is a directory, not a beam file")
     with open(path, "rb") as fh:
         head = fh.read(SNIFF_BYTES)
+    if not head:
+        raise BeamFormatError(f"{path}: empty file (0 bytes): an export or a copy that did not finish?")
     for fmt in FORMATS.values():
         if fmt.sniff(head):
             return fmt.name

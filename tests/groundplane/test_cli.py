@@ -173,7 +173,7 @@ def test_fom_never_imports_an_engine():
 
 @pytest.mark.parametrize("suffix", [".step", ".stl", ".svg"])
 def test_export_replaces_atomically_keeps_a_good_file_on_failure_and_replaces_a_symlink(tmp_path, monkeypatch,
-                                                                                        suffix):
+                                                                                        suffix, capsys):
     """A failed or interrupted export leaves the good file it would have replaced; a symlink
     at -o is replaced by the file, its target left alone (as convert does)."""
     from groundplane import cad
@@ -189,8 +189,8 @@ def test_export_replaces_atomically_keeps_a_good_file_on_failure_and_replaces_a_
         raise OSError("disk full")
 
     monkeypatch.setattr(cad, {".step": "export_step", ".stl": "export_stl", ".svg": "draw_outline"}[suffix], broken)
-    with pytest.raises(OSError, match="disk full"):
-        main(["export", "--preset", "square-20", "-o", str(out)])
+    assert main(["export", "--preset", "square-20", "-o", str(out)]) == 1  # one line, not a traceback
+    assert "could not be written (disk full)" in capsys.readouterr().err
     assert out.read_bytes() == good and not list(tmp_path.glob("*.tmp*"))
     monkeypatch.undo()
     target, link = tmp_path / "target.txt", tmp_path / f"link{suffix}"
@@ -198,3 +198,27 @@ def test_export_replaces_atomically_keeps_a_good_file_on_failure_and_replaces_a_
     link.symlink_to(target)
     assert main(["export", "--preset", "square-10", "-o", str(link)]) == 0
     assert not link.is_symlink() and target.read_text() == "keep me" and link.stat().st_size > 100
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["export", "square", "--side", "1e12", "-o", "x.step"], "1e+12 m tip to tip; a ground plane is 1-1000 m"),
+    (["export", "sawtooth", "--side", "10", "--teeth-per-side", "1000000", "--tooth-base", "1e-6",
+      "--tooth-height", "1", "-o", "x.step"], "--teeth-per-side 1000000 is more than 1000"),
+    (["solve", "square", "--side", "1e-6", "-o", "x.npz"], "1e-06 m tip to tip"),
+    (["fom", "examples/lowband_square10_nec.npz", "--lst-bin", "0.5"], "(--n-lst 720 holds whole bins of it)"),
+])
+def test_impossible_input_is_one_line_before_any_work(argv, message, capsys, tmp_path, monkeypatch):
+    """Issue 25 items 8 and 10: these were a 'not watertight' RuntimeError, 195 s of vertex
+    building, 'solver failed' (exit 1) and a message that did not say how to fix it."""
+    from tests.conftest import ROOT
+
+    monkeypatch.chdir(ROOT)
+    argv = [a if a not in ("x.step", "x.npz") else str(tmp_path / a) for a in argv]
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_an_empty_beam_file_says_empty(tmp_path, capsys):
+    (tmp_path / "b.npz").write_bytes(b"")
+    assert main(["fom", str(tmp_path / "b.npz")]) == 2
+    assert "empty file (0 bytes)" in capsys.readouterr().err
