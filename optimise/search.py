@@ -273,15 +273,7 @@ def optimise(
     UserInputError
         An unknown or unsearchable family, a budget or algorithm that cannot work.
     """
-    if not (math.isfinite(max_area) and max_area > 0):
-        raise UserInputError(f"--max-area must be a positive number of m^2, got {max_area}")
-    if algorithm not in CONSTRAINED_ALGORITHMS:
-        raise UserInputError(f"algorithm {algorithm} does not take the area constraint; use one of "
-                             f"{', '.join(CONSTRAINED_ALGORITHMS)}")
-    if budget < 1:
-        raise UserInputError("--budget must be >= 1 evaluation")
-    if strategy not in STRATEGIES:
-        raise UserInputError(f"--strategy {strategy}: choose one of {', '.join(STRATEGIES)}")
+    _check_request(max_area, algorithm, budget, strategy)
     settings.check_scorable()
     fam = family(shape)
     ints: tuple = tuple(integer_values) if integer_values else (fam.integer_values or (None,))
@@ -295,10 +287,7 @@ def optimise(
     if strategy == "global":
         _global_search(fam, ints, ev, algorithm, out, executor, scheduler)
     else:
-        for i, n in enumerate(ints):  # the solves shared out, the first values taking the remainder
-            share = budget // len(ints) + (1 if i < budget % len(ints) else 0)
-            if share:
-                _run_nlopt(fam, n, ev, algorithm, ev.solves + share, max_area, progress)
+        _local_search(fam, ints, ev, algorithm)
     ok = [r for r in ev.hist.rows if r["status"] == "ok" and r["area_m2"] <= max_area * (1 + 1e-9)]
     best = min(ok, key=lambda r: r["fom_mk"]) if ok else None
     confirmed: list[dict[str, Any]] = []
@@ -311,6 +300,19 @@ def optimise(
     with atomic_path(out / "best.json", suffix=".tmp.json") as tmp:
         tmp.write_text(json.dumps(best, indent=1))
     return OptimiseResult(best, ev.hist.rows, out, confirmed)
+
+
+def _check_request(max_area: float, algorithm: str, budget: int, strategy: str) -> None:
+    """Refuse, before any work, a search that cannot run."""
+    if not (math.isfinite(max_area) and max_area > 0):
+        raise UserInputError(f"--max-area must be a positive number of m^2, got {max_area}")
+    if algorithm not in CONSTRAINED_ALGORITHMS:
+        raise UserInputError(f"algorithm {algorithm} does not take the area constraint; use one of "
+                             f"{', '.join(CONSTRAINED_ALGORITHMS)}")
+    if budget < 1:
+        raise UserInputError("--budget must be >= 1 evaluation")
+    if strategy not in STRATEGIES:
+        raise UserInputError(f"--strategy {strategy}: choose one of {', '.join(STRATEGIES)}")
 
 
 def seeds_for(fam: Family, max_area: float, ints: tuple) -> list[tuple[str, GroundPlane, np.ndarray, int | None]]:
@@ -350,6 +352,15 @@ def space_filling(fam: Family, ints: tuple, max_area: float, count: int, seed: i
             if len(out) == count:
                 break
     return out
+
+
+def _local_search(fam: Family, ints: tuple, ev: "_Evaluator", algorithm: str) -> None:
+    """One nlopt run per integer value from the family's start, the solves shared out (the
+    first values take the remainder)."""
+    for i, n in enumerate(ints):
+        share = ev.budget // len(ints) + (1 if i < ev.budget % len(ints) else 0)
+        if share:
+            _run_nlopt(fam, n, ev, algorithm, ev.solves + share, ev.max_area, ev.progress)
 
 
 def _global_search(fam: Family, ints: tuple, ev: "_Evaluator", algorithm: str, out: Path, executor: str,
