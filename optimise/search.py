@@ -267,12 +267,7 @@ def optimise(
     The best ``confirm_top`` are re-solved at ``confirm_mesh`` (or with ``confirm_settings``)
     and the answer is the best there. ``objective`` names what ``evaluate_fn`` returns when it
     is not the plain FoM (e.g. the mean over soils), so a resume refuses another one.
-
-    Raises
-    ------
-    UserInputError
-        An unknown or unsearchable family, a budget or algorithm that cannot work.
-    """
+    Raises UserInputError for a family, budget or algorithm that cannot work."""
     _check_request(max_area, algorithm, budget, strategy)
     settings.check_scorable()
     fam = family(shape)
