@@ -15,14 +15,15 @@ pytestmark = pytest.mark.slow
 
 
 def test_blade_over_pec_full_band_matches_table1_widths_and_the_solver_spread():
-    """61 frequencies: E/H widths at 75 MHz within 1.5 deg of Table 1, gain calibrated to a
-    mean of 2 at every frequency, and an LST-averaged FoM inside the paper's six-solver
-    spread over infinite PEC (50.7-109 mK)."""
+    """61 frequencies: E/H widths at 75 MHz within 1.5 deg of Table 1, an uncalibrated
+    radiated/input balance that is smooth across the band (the calibration divides it out, so
+    the calibrated mean of 2 would be true by construction and is not tested), and an
+    LST-averaged FoM inside the paper's six-solver spread over infinite PEC (50.7-109 mK)."""
     beam = NecSolver(workers=2, progress=False, use_cache=False).solve(Design(None, InfinitePEC()), DEFAULT_FREQS_MHZ)
     assert beam.beam_width_3db(75, 0) == pytest.approx(paper.BEAM_WIDTH_E_DEG, abs=1.5)
     assert beam.beam_width_3db(75, 90) == pytest.approx(paper.BEAM_WIDTH_H_DEG, abs=1.5)
-    w = beam.solid_angle_weights()
-    assert np.allclose((beam.gain * w).sum((1, 2)) / w.sum(), 2.0, rtol=2e-3)
+    kappa = np.asarray(beam.meta["gain_calibration_kappa"])  # uncalibrated mean gain / 2, per frequency
+    assert np.all((kappa > 0.8) & (kappa < 0.9)) and np.max(np.abs(np.diff(kappa))) < 1e-3  # 1 MHz apart: <= 1.7e-4 seen
     lo, hi = paper.PEC_FOM_RANGE_MK
     fom = figure_of_merit(beam, FomSettings()).lst_averaged_fom_mk
     assert lo <= fom <= hi, fom

@@ -31,8 +31,7 @@ def test_pec_calibration_factor_and_beam_widths():
 
     d = Design(None, InfinitePEC())
     coarse = NecSolver(workers=1, progress=False, use_cache=False).solve(d, [60.0, 90.0])
-    w = coarse.solid_angle_weights()
-    assert np.allclose((coarse.gain * w).sum((1, 2)) / w.sum(), 2.0, rtol=1e-3)
+    # the calibrated mean of 2 is true by construction (kappa is the beam's own mean / 2): test kappa
     kappa = coarse.meta["gain_calibration_kappa"]
     assert all(0.80 < k < 0.90 for k in kappa)  # the uncalibrated split feed reads 10-20 % low
     # the turned blade (0.964 m along the axis) gives Table 1's widths at 75 MHz
