@@ -71,7 +71,8 @@ def write_report(rows: list[dict[str, Any]], out_dir: str | Path, title: str = "
 
 
 MESH_NOTE = ("Solved FoMs depend on the model's mesh (`groundplane study mesh-convergence` measures how much): "
-             "compare candidates only at one mesh, and re-solve the best at a finer one.")
+             "compare candidates only at one mesh, and re-solve the best at a finer one. A '-' in the smoothed or "
+             "narrow-band column: the band has too few frequencies for their degree-12 fit in frequency (25 needed).")
 
 
 def _params(r: dict[str, Any]) -> str:
@@ -95,9 +96,14 @@ def _html(title: str, paragraphs: list[str], header: list[str], cells: list[list
           bad: list[dict[str, Any]], figs: dict[str, Path]) -> str:
     """report.html: the same content as report.md (a page for people who would rather look)."""
     e = html.escape
-    paras = "".join(f"<p>{e(p)}</p>" for p in paragraphs if p)
+
+    def inline(text: str) -> str:  # markdown `code` as <code>, the rest escaped
+        parts = e(text).split("`")
+        return "".join(f"<code>{p}</code>" if i % 2 else p for i, p in enumerate(parts))
+
+    paras = "".join(f"<p>{inline(p)}</p>" for p in paragraphs if p)
     head = "".join(f"<th>{e(h)}</th>" for h in header)
-    body = "".join("<tr>" + "".join(f"<td>{e(c)}</td>" for c in row) + "</tr>" for row in cells)
+    body = "".join("<tr>" + "".join(f"<td>{inline(c)}</td>" for c in row) + "</tr>" for row in cells)
     lost = ""
     if bad:
         lost = "<h2>Not scored</h2><ul>" + "".join(

@@ -78,3 +78,14 @@ def test_html_report_carries_everything_the_markdown_does(tmp_path):
     for needle in ("240.5", "123", "teeth_per_side=2", "worker died <oom>", "Not scored", "mesh 0.5 m", "mesh-convergence"):
         assert needle in md and needle in text, needle
     assert sorted(parser.imgs) == sorted(p.split("(")[1].rstrip(")") for p in md.splitlines() if p.startswith("!["))
+
+
+def test_html_report_shows_code_not_backticks(tmp_path):
+    from optimise.report import write_report
+
+    rows = [{"name": "a", "status": "ok", "shape": "square", "params": {"side": 10}, "metal_area_m2": 100.0,
+             "extent_m": 10.0, "lst_averaged_fom_mk": 200.0, "fom_mk": [200.0], "lst_hours": [0.0],
+             "fit_freqs_mhz": [], "residuals_mk": {}}]
+    html = write_report(rows, tmp_path, preamble="Command: `groundplane sweep x.toml`.")["html"].read_text()
+    assert "<code>groundplane sweep x.toml</code>" in html and "`" not in html
+    assert "too few frequencies for their degree-12 fit" in (tmp_path / "report.md").read_text()
