@@ -25,8 +25,34 @@ def _write(path: Path, text: str) -> None:
 
 def ranked(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """Scored rows by FoM (best first), then the rows that were not scored."""
-    ok = sorted([r for r in rows if r.get("status") == "ok"], key=lambda r: r["lst_averaged_fom_mk"])
+    sets = frequency_sets(rows)
+    ok = sorted([r for r in rows if r.get("status") == "ok"],
+                key=lambda r: (sets.get(_fit_key(r), 0), r["lst_averaged_fom_mk"]))
     return ok + [r for r in rows if r.get("status") != "ok"]
+
+
+def _fit_key(r: dict[str, Any]) -> tuple:
+    return tuple(round(float(f), 6) for f in r.get("fit_freqs_mhz") or ())
+
+
+def frequency_sets(rows: list[dict[str, Any]]) -> dict[tuple, int]:
+    """The distinct sets of fit frequencies the scored rows used, numbered from 1 (the most
+    rows first): FoMs are compared only within one set (the same beam scores differently on
+    another), so a report ranks within each."""
+    from collections import Counter
+
+    counts = Counter(_fit_key(r) for r in rows if r.get("status") == "ok")
+    return {k: i for i, (k, _) in enumerate(counts.most_common(), 1)}
+
+
+def _sets_note(rows: list[dict[str, Any]]) -> str:
+    sets = frequency_sets(rows)
+    if len(sets) < 2:
+        return ""
+    def describe(k: tuple) -> str:
+        return f"{len(k)} frequencies {k[0]:g}-{k[-1]:g} MHz" if k else "no fit frequencies recorded"
+    return ("These rows were scored on different frequency sets, so they are ranked within each set, not across: "
+            + "; ".join(f"set {i}: {describe(k)}" for k, i in sets.items()) + ".")
 
 
 def write_report(rows: list[dict[str, Any]], out_dir: str | Path, title: str = "Ground-plane sweep",
@@ -43,8 +69,9 @@ def write_report(rows: list[dict[str, Any]], out_dir: str | Path, title: str = "
         w = csv.writer(fh)
         w.writerow(["rank", "name", "status", "shape", "params", "metal_area_m2", "extent_m",
                     "lst_averaged_fom_mk", "fom_smoothed_mk", "solve_s", "error"])
-        for i, r in enumerate(rows, 1):
-            w.writerow([i if r.get("status") == "ok" else "", r["name"], r.get("status"), r.get("shape"),
+        labels = _rank_labels(ok)
+        for i, r in enumerate(rows):
+            w.writerow([labels[i] if i < len(labels) else "", r["name"], r.get("status"), r.get("shape"),
                         json.dumps(r.get("params")), r.get("metal_area_m2"), r.get("extent_m"),
                         r.get("lst_averaged_fom_mk"), r.get("fom_smoothed_mk"), r.get("solve_s"),
                         r.get("error", "")])
@@ -54,7 +81,8 @@ def write_report(rows: list[dict[str, Any]], out_dir: str | Path, title: str = "
     paths.update(figs)
     header, cells = _ranking(ok)
     bad = [r for r in rows if r.get("status") != "ok"]
-    notes = [MESH_NOTE] if any(r.get("shape") != "beam-file" for r in ok) else []
+    notes = ([MESH_NOTE] if any(r.get("shape") != "beam-file" for r in ok) else []) + \
+        ([note] if (note := _sets_note(rows)) else [])
     md = [f"# {title}", ""]
     if preamble:
         md += [preamble, ""]
@@ -81,14 +109,28 @@ def _params(r: dict[str, Any]) -> str:
     return ", ".join(f"{k}={v:g}" if isinstance(v, (int, float)) else f"{k}={v}" for k, v in p.items()) or "-"
 
 
+def _rank_labels(ok: list[dict[str, Any]]) -> list[str]:
+    """Each scored row's rank within its frequency set (``ranked`` order), with the set when
+    there is more than one."""
+    sets = frequency_sets(ok)
+    labels, rank = [], {}
+    for r in ok:
+        s = sets.get(_fit_key(r), 1)
+        rank[s] = rank.get(s, 0) + 1
+        labels.append(f"{rank[s]} (set {s})" if len(sets) > 1 else str(rank[s]))
+    return labels
+
+
 def _ranking(ok: list[dict[str, Any]]) -> tuple[list[str], list[list[str]]]:
     """The ranking table, once, for both the markdown and the HTML report."""
     header = ["rank", "candidate", "shape", "parameters", "metal area (m^2)", "extent (m)",
               "LST-averaged FoM (mK)", "FoM, G(nu) smoothed (mK)", "narrow-band rms", "solve (s)"]
-    cells = [[str(i), r["name"], str(r.get("shape")), _params(r), _f(r.get("metal_area_m2")), _f(r.get("extent_m")),
-              f"{r['lst_averaged_fom_mk']:.1f}", _f(r.get("fom_smoothed_mk")),
-              "-" if r.get("narrow_band_rms") is None else f"{r['narrow_band_rms']:.1e}", _f(r.get("solve_s"), 0)]
-             for i, r in enumerate(ok, 1)]
+    cells = []
+    for label, r in zip(_rank_labels(ok), ok):
+        cells.append([label, r["name"], str(r.get("shape")), _params(r), _f(r.get("metal_area_m2")),
+                      _f(r.get("extent_m")), f"{r['lst_averaged_fom_mk']:.1f}", _f(r.get("fom_smoothed_mk")),
+                      "-" if r.get("narrow_band_rms") is None else f"{r['narrow_band_rms']:.1e}",
+                      _f(r.get("solve_s"), 0)])
     return header, cells
 
 

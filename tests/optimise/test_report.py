@@ -89,3 +89,20 @@ def test_html_report_shows_code_not_backticks(tmp_path):
     html = write_report(rows, tmp_path, preamble="Command: `groundplane sweep x.toml`.")["html"].read_text()
     assert "<code>groundplane sweep x.toml</code>" in html and "`" not in html
     assert "too few frequencies for their degree-12 fit" in (tmp_path / "report.md").read_text()
+
+
+def test_rows_on_different_frequency_sets_are_ranked_within_each(tmp_path):
+    """Issue 25 item 2: a beam sampled every 7 MHz ranked first above the same design at 1 MHz."""
+    from optimise.report import write_report
+
+    def row(name, fom, freqs):
+        return {"name": name, "status": "ok", "shape": "square", "params": {"side": 10}, "metal_area_m2": 100.0,
+                "extent_m": 10.0, "lst_averaged_fom_mk": fom, "fom_mk": [fom], "lst_hours": [0.0],
+                "fit_freqs_mhz": freqs, "residuals_mk": {}}
+    fine, coarse = list(range(55, 98)), list(range(55, 98, 4))
+    rows = [row("a-1mhz", 240.0, fine), row("b-1mhz", 200.0, fine), row("a-4mhz", 90.0, coarse)]
+    md = write_report(rows, tmp_path)["md"].read_text()
+    assert "ranked within each set, not across" in md
+    assert "| 1 (set 1) | b-1mhz" in md and "| 2 (set 1) | a-1mhz" in md and "| 1 (set 2) | a-4mhz" in md
+    single = write_report(rows[:2], tmp_path / "one")["md"].read_text()
+    assert "not across" not in single and "| 1 | b-1mhz" in single
