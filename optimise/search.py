@@ -101,8 +101,24 @@ class History:
 
     def __init__(self, path: Path) -> None:
         self.path = path
-        self.rows: list[dict[str, Any]] = read_jsonl(path)  # a torn last line is evaluated again
-        self.index = {self.key(r["integer"], r["x"]): r for r in self.rows if "x" in r and "integer" in r}
+        rows = read_jsonl(path)  # a torn last line is evaluated again
+        self.rows: list[dict[str, Any]] = [r for r in rows if self.whole(r)]
+        if len(self.rows) < len(rows):
+            from groundplane.files import warn_once
+
+            warn_once(str(path), f"{path}: {len(rows) - len(self.rows)} line(s) are not history rows and are ignored "
+                                 "(their designs are evaluated again)")
+        self.index = {self.key(r["integer"], r["x"]): r for r in self.rows}
+
+    @staticmethod
+    def whole(r: dict[str, Any]) -> bool:
+        """A row this search wrote: a list of numbers x, an integer or null, a status, a number objective."""
+        def number(v: Any) -> bool:
+            return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+        return (isinstance(r.get("x"), list) and all(number(v) for v in r["x"])
+                and (r.get("integer") is None or isinstance(r.get("integer"), int))
+                and isinstance(r.get("status"), str) and number(r.get("objective"))
+                and (r["status"] != "ok" or number(r.get("fom_mk"))) and number(r.get("area_m2")))
 
     @staticmethod
     def key(n: int | None, x) -> tuple:

@@ -178,3 +178,17 @@ def test_thin_strips_are_too_fine_for_the_mesh():
     assert too_fine_for(arms, 0.25, True) is None
     for name, plane in PRESETS.items():
         assert thin_fraction(plane, 1.0) < 0.01, name
+
+
+def test_history_lines_of_the_wrong_shape_are_evaluated_again(tmp_path, capsys):
+    """Issue 25 item 8: valid JSON of the wrong shape in history.jsonl was a traceback."""
+    ev, calls = _fake_eval(lambda p: 100.0 + (p.side - 12.0) ** 2)
+    optimise("square", 400.0, EvalSettings(), tmp_path, budget=6, evaluate_fn=ev, progress=False, strategy="local")
+    n = len(calls)
+    with open(tmp_path / "history.jsonl", "a") as fh:
+        fh.write('{"x": "abc", "integer": null, "status": "ok"}\n[1, 2, 3]\n{"x": [1.0], "objective": "NaN"}\n')
+    ev2, calls2 = _fake_eval(lambda p: 100.0 + (p.side - 12.0) ** 2)
+    res = optimise("square", 400.0, EvalSettings(), tmp_path, budget=6, evaluate_fn=ev2, progress=False,
+                   strategy="local")
+    assert calls2 == [] and res.best is not None and n > 0  # the good rows replayed, nothing solved again
+    assert "line(s) are not history rows and are ignored" in capsys.readouterr().err
