@@ -122,9 +122,11 @@ def pareto_front(shape: str, budgets: list[float], settings: EvalSettings, confi
     for b in sorted(budgets):
         if progress:
             print(f"pareto: budget {b:g} m^2", file=sys.stderr, flush=True)
+        # the smaller budgets' answers fit this one too: scored first, so the front cannot rise with metal
+        smaller = {f"answer at {a:g} m^2": best_plane(shape, r.best) for a, r in results.items() if r.best}
         res = optimise(shape, b, settings, out / f"budget-{b:g}", budget=budget, evaluate_fn=evaluate_fn,
                        progress=progress, confirm_settings=confirm, confirm_top=confirm_top, executor=executor,
-                       scheduler=scheduler)
+                       scheduler=scheduler, seeds=smaller)
         results[b] = res
         rows.append(_answer(shape, b, res, confirm, answer_mesh, evaluate_fn))
         write_csv(out / "pareto.csv", rows, PARETO_COLUMNS)

@@ -270,6 +270,7 @@ def optimise(
     executor: str = "local",
     scheduler: str | None = None,
     objective: dict[str, Any] | None = None,
+    seeds: dict[str, GroundPlane] | None = None,
 ) -> OptimiseResult:
     """Minimise the LST-averaged FoM of ``shape`` with metal area <= ``max_area`` (m^2), in at
     most ``budget`` solves (designs that are invalid or over the budget cost none).
@@ -282,7 +283,8 @@ def optimise(
     ``executor`` "dask" the exploration's designs are solved in parallel on the cluster first.
     The best ``confirm_top`` are re-solved at ``confirm_mesh`` (or with ``confirm_settings``)
     and the answer is the best there. ``objective`` names what ``evaluate_fn`` returns when it
-    is not the plain FoM (e.g. the mean over soils), so a resume refuses another one.
+    is not the plain FoM (e.g. the mean over soils), so a resume refuses another one. ``seeds``:
+    more named designs the global search scores first (before the presets).
     Raises UserInputError for a family, budget or algorithm that cannot work."""
     _check_request(max_area, algorithm, budget, strategy)
     settings.check_scorable()
@@ -296,7 +298,7 @@ def optimise(
     ev = _Evaluator(fam, shape, max_area, settings, History(out / "history.jsonl"),
                     evaluate_fn or (lambda c, s: evaluate(c, s, progress=progress)), progress, budget=budget)
     if strategy == "global":
-        _global_search(fam, ints, ev, algorithm, out, executor, scheduler)
+        _global_search(fam, ints, ev, algorithm, out, executor, scheduler, seeds)
     else:
         _local_search(fam, ints, ev, algorithm)
     ok = [r for r in ev.hist.rows if r["status"] == "ok" and r["area_m2"] <= max_area * (1 + 1e-9)]
@@ -326,13 +328,15 @@ def _check_request(max_area: float, algorithm: str, budget: int, strategy: str) 
         raise UserInputError(f"--strategy {strategy}: choose one of {', '.join(STRATEGIES)}")
 
 
-def seeds_for(fam: Family, max_area: float, ints: tuple) -> list[tuple[str, GroundPlane, np.ndarray, int | None]]:
-    """The presets that are members of the family (exactly: :meth:`GroundPlane.member`) and fit
-    the budget: (name, the preset itself, its x, its integer)."""
+def seeds_for(fam: Family, max_area: float, ints: tuple, extra: dict[str, GroundPlane] | None = None
+              ) -> list[tuple[str, GroundPlane, np.ndarray, int | None]]:
+    """The presets (and ``extra`` named planes, e.g. smaller budgets' answers) that are members
+    of the family (exactly: :meth:`GroundPlane.member`) and fit the budget: (name, the plane
+    itself, its x, its integer)."""
     from groundplane.shapes import PRESETS
 
     out = []
-    for name, plane in PRESETS.items():
+    for name, plane in {**(extra or {}), **PRESETS}.items():  # the known answers first
         m = fam.cls.member(plane)
         if m is None or plane.metal_area > max_area * (1 + 1e-9):
             continue
@@ -375,10 +379,10 @@ def _local_search(fam: Family, ints: tuple, ev: "_Evaluator", algorithm: str) ->
 
 
 def _global_search(fam: Family, ints: tuple, ev: "_Evaluator", algorithm: str, out: Path, executor: str,
-                   scheduler: str | None) -> None:
+                   scheduler: str | None, extra: dict[str, GroundPlane] | None = None) -> None:
     """Seeds and a space-filling sample, then local refinement from the best few."""
     explore = max(1, math.ceil(EXPLORE_FRACTION * ev.budget))
-    seeds = seeds_for(fam, ev.max_area, ints)[:explore]
+    seeds = seeds_for(fam, ev.max_area, ints, extra)[:explore]
     sample = space_filling(fam, ints, ev.max_area, 4 * explore)  # spares for designs the mesh cannot hold
     designs = [(x, n, plane, name) for name, plane, x, n in seeds] + [(x, n, None, None) for x, n in sample]
     if executor != "local":

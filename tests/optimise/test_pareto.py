@@ -125,3 +125,14 @@ def test_robust_search_minimises_over_the_soils_and_reports_both(tmp_path):
     # the robust search's directory refuses a resume with another objective
     with pytest.raises(ValueError, match="other settings"):
         optimise("square", 400.0, EvalSettings(), tmp_path / "robust", budget=14, evaluate_fn=ev, progress=False)
+
+
+def test_the_front_does_not_rise_with_metal(tmp_path):
+    """A larger budget is searched from the smaller budgets' answers too, so its answer is never
+    worse (on the search level) than theirs."""
+    calls = []
+    front = pareto_front("teeth", [150.0, 600.0], EvalSettings().with_spacing(1.0), EvalSettings(), tmp_path,
+                         budget=8, ladder=0, evaluate_fn=fake_eval(calls), progress=False, floor=lambda s: 55.0)
+    small, big = front.results[150.0].best, front.results[600.0].best
+    assert big["search_fom_mk"] <= small["search_fom_mk"] + 1e-9
+    assert any(n == "answer at 150 m^2" for n, _ in calls)
