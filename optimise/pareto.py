@@ -165,13 +165,14 @@ def verdicts(front: Front, target: float = 0.25) -> list[str]:
         ref = best_preset_within(front.presets, r["budget_m2"])
         head = f"- {r['budget_m2']:g} m^2: {r['fom_mk']:.1f} mK at {r['area_m2']:.0f} m^2 ({r['evaluations']} solves)"
         if ref is None:
-            out.append(head + f"; no preset fits this budget; {r['fom_mk'] / floor:.2f} x the PEC floor.")
+            out.append(head + f"; no preset fits this budget; {r['fom_mk'] / floor:.2f} x the blade over infinite PEC.")
             continue
         gain = 1 - r["fom_mk"] / ref["fom_mk"]
         out.append(head + f" against {ref['preset']} {ref['fom_mk']:.1f} mK at {ref['area_m2']:.0f} m^2: "
                    + (f"{gain:.0%} lower, " + ("at least" if gain >= target else "short of") + f" {target:.0%}"
                       if gain > 0 else f"{-gain:.0%} higher: the search did not beat it")
-                   + f"; {r['fom_mk'] / floor:.2f} x the PEC floor ({floor:.1f} mK).")
+                   + f"; {r['fom_mk'] / floor:.2f} x the blade over infinite PEC ({floor:.1f} mK)"
+                   + (", below it: in this model the blade over PEC is no floor." if r["fom_mk"] < floor else "."))
     return out
 
 

@@ -46,7 +46,7 @@ def test_pareto_front_tables_ladder_and_verdicts(tmp_path):
     assert {"square-10", "plus-15", "sawtooth-10-8"} <= seeded and "sawtooth-20-16" in seeded
     assert len(front.ladder) >= 20 and front.ladder_spearman == pytest.approx(1.0)  # a pure level bias ranks alike
     text = "\n".join(verdicts(front))
-    assert "200 m^2" in text and "against sawtooth-10-8" in text and "x the PEC floor (55.0 mK)" in text
+    assert "200 m^2" in text and "against sawtooth-10-8" in text and "x the blade over infinite PEC (55.0 mK)" in text
     md = write_report(front, tmp_path, "test", search, confirm).read_text()
     assert "<!-- provenance:" in md.splitlines()[0] and "Spearman **1.00**" in md
     for f in ("pareto.png", "convergence.png", "answer-200.step", "answer-600.svg"):
