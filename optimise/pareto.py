@@ -99,7 +99,8 @@ def fidelity_ladder(shape: str, results: dict[float, OptimiseResult], confirm: E
     picks = [pool[int(i)] for i in np.unique(np.linspace(0, len(pool) - 1, min(count, len(pool))).round())] if pool else []
     rows = []
     for i, r in enumerate(picks):
-        plane = fam.build(np.array(r["x"]), r["integer"])
+        # a seed preset is solved as itself (its beam is presets.csv's), not as a family member
+        plane = PRESETS[r["name"]] if r.get("name") in PRESETS else fam.build(np.array(r["x"]), r["integer"])
         fine = _fom(Candidate(f"{shape}-ladder-{i}", plane=plane), confirm, evaluate_fn)
         rows.append({"design": json.dumps(r["params"]), "area_m2": r["area_m2"], "search_fom_mk": r["fom_mk"],
                      "search_mesh_m": r.get("mesh_m"), "confirm_fom_mk": fine, "confirm_mesh_m": confirm.spacing})
