@@ -292,9 +292,8 @@ def optimise(
     ints: tuple = tuple(integer_values) if integer_values else (fam.integer_values or (None,))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    same_search(out, {"shape": shape, "max_area": max_area, "settings": settings.identity(),
-                      **({"strategy": strategy} if strategy != "local" else {}),
-                      **({"objective": objective} if objective else {})})
+    extra = {**({"strategy": strategy} if strategy != "local" else {}), **({"objective": objective} if objective else {})}
+    same_search(out, {"shape": shape, "max_area": max_area, "settings": settings.identity(), **extra})
     ev = _Evaluator(fam, shape, max_area, settings, History(out / "history.jsonl"),
                     evaluate_fn or (lambda c, s: evaluate(c, s, progress=progress)), progress, budget=budget)
     if strategy == "global":
