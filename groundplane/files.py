@@ -117,3 +117,14 @@ def read_jsonl(path: str | os.PathLike) -> list[dict[str, Any]]:
             if isinstance(row, dict):
                 rows.append(row)
     return rows
+
+
+def write_csv(path: str | os.PathLike, rows: list[dict[str, Any]], fieldnames=None) -> None:
+    """A table as CSV, replaced atomically (a rerun or a kill never leaves half a file);
+    columns are ``fieldnames`` (default: the first row's keys), missing cells empty."""
+    import csv
+
+    with atomic_path(path, suffix=".tmp.csv") as tmp, open(tmp, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(fieldnames or rows[0]), extrasaction="ignore")
+        w.writeheader()
+        w.writerows(rows)

@@ -416,15 +416,19 @@ def gain_derivative(beam: Beam, phi_deg: float) -> tuple[np.ndarray, np.ndarray,
     """dG/dnu (per MHz) across the vertical plane ``phi_deg``: elevation 0..180 deg runs
     from the horizon at phi through zenith (90) to the horizon at phi + 180, as in the
     paper's plots. Returns (frequency mid-points, elevation, dG/dnu [f-1, elevation])."""
+    elev, g = vertical_plane(beam, phi_deg)
+    deriv = np.diff(g, axis=0) / np.diff(beam.freqs_mhz)[:, None]
+    return 0.5 * (beam.freqs_mhz[1:] + beam.freqs_mhz[:-1]), elev, deriv
+
+
+def vertical_plane(beam: Beam, phi_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """(elevation 0..180 deg, gain [f, elevation]) across the vertical plane at ``phi_deg``:
+    the horizon at phi, zenith at 90, the horizon at phi + 180 (the paper's axes)."""
     hemi = beam.upper_hemisphere()
-    cut_a = hemi.cut(phi_deg)
-    cut_b = hemi.cut(phi_deg + 180.0)
     elev = np.concatenate([90.0 - hemi.theta_deg, 90.0 + hemi.theta_deg[1:]])
-    g = np.concatenate([cut_a, cut_b[:, 1:]], axis=1)
+    g = np.concatenate([hemi.cut(phi_deg), hemi.cut(phi_deg + 180.0)[:, 1:]], axis=1)
     order = np.argsort(elev)
-    df = np.diff(beam.freqs_mhz)
-    deriv = np.diff(g[:, order], axis=0) / df[:, None]
-    return 0.5 * (beam.freqs_mhz[1:] + beam.freqs_mhz[:-1]), elev[order], deriv
+    return elev[order], g[:, order]
 
 
 def narrow_band_rms(beam: Beam, degree: int = 12) -> float | None:

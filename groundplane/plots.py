@@ -35,6 +35,14 @@ def check_figure_path(path: str | Path) -> Path:
     return path
 
 
+def finish_figure(fig, path: str | Path, dpi: int = 110) -> Path:
+    """Lay out, write (atomically) and close a figure: the last step of every figure here."""
+    fig.tight_layout()
+    save_figure(fig, path, dpi=dpi)
+    pyplot().close(fig)
+    return Path(path)
+
+
 def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
     """Write a figure atomically to ``path``, whose suffix names the format."""
     from .files import atomic_path
@@ -72,26 +80,12 @@ def fom_figure(results: Sequence[FomResult], labels: Sequence[str], path: str | 
         a.set_xlabel("frequency (MHz)")
         a.set_ylabel("T_ant - model (mK)")
         a.grid(alpha=0.3)
-    fig.tight_layout()
-    save_figure(fig, path, dpi=110)
-    plt.close(fig)
-    return path
+    return finish_figure(fig, path)
 
 
 # ------------------------------------------------------------------ beam figures
 BEAM_PANELS = ("cuts", "derivative", "poly3", "widths")
 """The panels of :func:`beam_figures`: gain cuts, dG/dnu maps, 3-term residuals, beam widths."""
-
-
-def _plane_cut(beam, phi_deg: float, freq_index: int) -> tuple[np.ndarray, np.ndarray]:
-    """(elevation 0..180 deg across the vertical plane at ``phi_deg``, gain in dBi): horizon at
-    phi, zenith at 90, horizon at phi + 180 (the paper's axes; gain_derivative's too)."""
-    hemi = beam.upper_hemisphere()
-    a, b = hemi.cut(phi_deg)[freq_index], hemi.cut(phi_deg + 180.0)[freq_index]
-    elev = np.concatenate([90.0 - hemi.theta_deg, 90.0 + hemi.theta_deg[1:]])
-    g = np.concatenate([a, b[1:]])
-    order = np.argsort(elev)
-    return elev[order], 10 * np.log10(np.maximum(g[order], 1e-30))
 
 
 def _show_freqs(beams, freqs: Sequence[float] | None) -> list[float]:
@@ -104,16 +98,19 @@ def _show_freqs(beams, freqs: Sequence[float] | None) -> list[float]:
 
 
 def _draw_cuts(fig, spec, beams, labels, freqs) -> None:
+    from .fom import vertical_plane
+
     styles = ["-", "--", ":", "-."]
     cmap = pyplot().get_cmap("viridis")
     for col, (phi, plane) in enumerate(((0.0, "E-plane (phi 0)"), (90.0, "H-plane (phi 90)"))):
         ax = fig.add_subplot(spec[col])
         for j, (beam, lab) in enumerate(zip(beams, labels)):
+            elev, g = vertical_plane(beam, phi)
             for i, f in enumerate(freqs):
                 k = int(np.argmin(np.abs(beam.freqs_mhz - f)))
                 if abs(beam.freqs_mhz[k] - f) > 1e-6:
                     continue
-                elev, db = _plane_cut(beam, phi, k)
+                db = 10 * np.log10(np.maximum(g[k], 1e-30))
                 ax.plot(elev, db, ls=styles[j % len(styles)], color=cmap(i / max(1, len(freqs) - 1) * 0.9),
                         label=f"{lab}, {f:g} MHz" if len(beams) > 1 else f"{f:g} MHz", lw=1.2)
         ax.set(title=f"gain, {plane}", xlabel="elevation across the plane (deg)", ylabel="gain (dBi)",
@@ -194,10 +191,7 @@ def beam_figures(beams: Sequence, labels: Sequence[str], path: str | Path, panel
         for i, p in enumerate(group):
             draw[p][0](fig, spec[i])
         fig.suptitle(", ".join(labels) if len(labels) < 4 else f"{len(labels)} beams", fontsize=10)
-        fig.tight_layout()
-        out = path.with_name(f"{path.stem}-{group[0]}{path.suffix}") if panels else path
-        written.append(save_figure(fig, out))
-        plt.close(fig)
+        written.append(finish_figure(fig, path.with_name(f"{path.stem}-{group[0]}{path.suffix}") if panels else path))
     return written
 
 
@@ -248,7 +242,4 @@ def comparison_figure(comparison, path: str | Path) -> Path:
     ax.set_yscale("log")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
-    fig.tight_layout()
-    save_figure(fig, path)
-    plt.close(fig)
-    return path
+    return finish_figure(fig, path)

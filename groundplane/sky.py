@@ -301,38 +301,53 @@ def _crc(a: np.ndarray) -> int:
     return zlib.crc32(memoryview(np.ascontiguousarray(a)).cast("B"))
 
 
-def _read_sky_cache(file: Path, shape: tuple[int, ...]) -> np.ndarray | None:
-    """A cached horizon sky if it is whole: right shape, CRC-32 as written, plausible
-    temperatures. Anything else (truncated, overwritten, no checksum) is deleted: an entry
-    whose checksum is missing is never adopted, however plausible its values (a sky scaled
-    x2 is plausible and scored 478.9 mK for 239.5)."""
+def _read_checked(file: Path, load, valid) -> tuple[np.ndarray, ...] | None:
+    """The arrays of a cache entry if it is whole: ``load(file)`` reads them, ``valid(*arrays)``
+    says they are plausible, and their CRC-32 is the one written beside them. Anything else
+    (truncated, overwritten, no checksum) is deleted: an entry whose checksum is missing is
+    never adopted, however plausible its values (a sky scaled x2 is plausible and scored
+    478.9 mK for 239.5)."""
     check = file.with_suffix(".crc.json")
     if not file.exists():
         return None
     try:
-        t408 = np.load(file, allow_pickle=False)
-        ok = (t408.shape == shape and t408.dtype == np.float32 and bool(np.all(np.isfinite(t408)))
-              and float(t408.min()) > 0.0 and float(t408.max()) < 1e6)
-        ok = ok and check.exists() and json.loads(check.read_text()).get("crc32") == _crc(t408)
-    except (OSError, ValueError, TypeError, AttributeError, EOFError):
+        arrays = load(file)
+        ok = bool(valid(*arrays)) and check.exists() and json.loads(check.read_text()).get("crc32") == _crc_of(arrays)
+    except (OSError, ValueError, TypeError, KeyError, AttributeError, EOFError):
         ok = False
     if not ok:
         file.unlink(missing_ok=True)
         check.unlink(missing_ok=True)
         return None
-    return t408
+    return arrays
+
+
+def _write_checked(file: Path, save, arrays: tuple[np.ndarray, ...]) -> None:
+    """Write a cache entry (``save(fh)``) and its CRC-32 beside it, each atomically."""
+    with atomic_path(file, suffix=file.suffix + ".tmp") as tmp:
+        with open(tmp, "wb") as fh:
+            save(fh)
+    with atomic_path(file.with_suffix(".crc.json"), suffix=".json.tmp") as tmp:
+        tmp.write_text(json.dumps({"crc32": _crc_of(arrays), "shape": list(arrays[0].shape)}))
+
+
+def _crc_of(arrays: tuple[np.ndarray, ...]) -> int:
+    out = 0
+    for a in arrays:
+        out ^= _crc(a)
+    return out
+
+
+def _read_sky_cache(file: Path, shape: tuple[int, ...]) -> np.ndarray | None:
+    """A cached horizon sky if whole: right shape, float32, finite, plausible temperatures."""
+    got = _read_checked(file, lambda f: (np.load(f, allow_pickle=False),),
+                        lambda t: (t.shape == shape and t.dtype == np.float32 and np.all(np.isfinite(t))
+                                   and float(t.min()) > 0.0 and float(t.max()) < 1e6))
+    return None if got is None else got[0]
 
 
 def _write_sky_cache(file: Path, t408: np.ndarray) -> None:
-    with atomic_path(file, suffix=".npy.tmp") as tmp:
-        with open(tmp, "wb") as fh:
-            np.save(fh, t408)
-    _write_checksum(file, t408)
-
-
-def _write_checksum(file: Path, t408: np.ndarray) -> None:
-    with atomic_path(file.with_suffix(".crc.json"), suffix=".json.tmp") as tmp:
-        tmp.write_text(json.dumps({"crc32": _crc(t408), "shape": list(t408.shape)}))
+    _write_checked(file, lambda fh: np.save(fh, t408), (t408,))
 
 
 # ------------------------------------------------------------------ other sky models
@@ -456,30 +471,17 @@ def horizon_weights(theta_deg: np.ndarray, phi_deg: np.ndarray, *, lsts_deg: np.
     return hw
 
 
-def _read_weights_cache(file: Path, shape: tuple[int, ...], npix: int) -> tuple[np.ndarray, np.ndarray] | None:
-    """Cached weights if whole (shapes, CRC-32 as written, pixels in range, weights summing to 1);
-    anything else is deleted and recomputed."""
-    check = file.with_suffix(".crc.json")
-    if not file.exists():
-        return None
-    try:
-        with np.load(file, allow_pickle=False) as z:
-            pix, weight = z["pix"], z["weight"]
-        ok = (pix.shape == shape and weight.shape == shape and pix.min() >= 0 and pix.max() < npix
-              and bool(np.allclose(weight.sum(axis=-1), 1.0, atol=1e-5)))
-        ok = ok and check.exists() and json.loads(check.read_text()).get("crc32") == _crc(pix) ^ _crc(weight)
-    except (OSError, ValueError, TypeError, KeyError, EOFError):
-        ok = False
-    if not ok:
-        file.unlink(missing_ok=True)
-        check.unlink(missing_ok=True)
-        return None
-    return pix, weight
+def _load_weights(file: Path) -> tuple[np.ndarray, np.ndarray]:
+    with np.load(file, allow_pickle=False) as z:
+        return z["pix"], z["weight"]
+
+
+def _read_weights_cache(file: Path, shape: tuple[int, ...], npix: int) -> tuple[np.ndarray, ...] | None:
+    """Cached weights if whole: shapes, pixels in range, weights summing to 1 (and the CRC)."""
+    return _read_checked(file, _load_weights,
+                         lambda pix, w: (pix.shape == shape and w.shape == shape and pix.min() >= 0 and pix.max() < npix
+                                         and np.allclose(w.sum(axis=-1), 1.0, atol=1e-5)))
 
 
 def _write_weights_cache(file: Path, pix: np.ndarray, weight: np.ndarray) -> None:
-    with atomic_path(file, suffix=".npz.tmp") as tmp:
-        with open(tmp, "wb") as fh:
-            np.savez(fh, pix=pix, weight=weight)
-    with atomic_path(file.with_suffix(".crc.json"), suffix=".json.tmp") as tmp:
-        tmp.write_text(json.dumps({"crc32": _crc(pix) ^ _crc(weight), "shape": list(pix.shape)}))
+    _write_checked(file, lambda fh: np.savez(fh, pix=pix, weight=weight), (pix, weight))

@@ -10,9 +10,7 @@ too), and the answer at each budget once more at a finer mesh (``answer_mesh``).
 """
 from __future__ import annotations
 
-import csv
 import json
-import math
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,12 +19,13 @@ from typing import Any, Callable
 import numpy as np
 
 from groundplane.design import Design, InfinitePEC
-from groundplane.files import atomic_path
+from groundplane.files import atomic_path, write_csv
 from groundplane.fom import figure_of_merit
-from groundplane.shapes import PRESETS
+from groundplane.shapes import PRESETS, to_dict
 
 from .evaluate import Candidate, EvalSettings, evaluate
-from .search import OptimiseResult, best_plane, optimise
+from .report import cell
+from .search import OptimiseResult, best_plane, family, optimise
 
 LADDER_DESIGNS = 24  # designs scored at both levels to measure how well the cheap one ranks (>= 20)
 PARETO_COLUMNS = ("budget_m2", "area_m2", "fom_mk", "mesh_m", "design", "evaluations", "search_fom_mk",
@@ -76,7 +75,7 @@ def _answer(shape: str, budget_m2: float, res: OptimiseResult, confirm: EvalSett
     answer = _fom(Candidate(f"{shape}-answer-{budget_m2:g}", plane=plane), confirm.with_spacing(answer_mesh),
                   evaluate_fn) if answer_mesh else None
     return {"budget_m2": budget_m2, "area_m2": round(plane.metal_area, 3), "fom_mk": best["fom_mk"],
-            "mesh_m": best.get("confirmed_at", best.get("mesh_m")), "design": json.dumps({"shape": shape, **plane.params()}),
+            "mesh_m": best.get("confirmed_at", best.get("mesh_m")), "design": json.dumps(to_dict(family(shape).cls.member(plane))),
             "evaluations": solves, "search_fom_mk": best.get("search_fom_mk", best["fom_mk"]),
             "search_mesh_m": best.get("mesh_m"), "answer_fom_mk": answer, "answer_mesh_m": answer_mesh}
 
@@ -87,7 +86,7 @@ def fidelity_ladder(shape: str, results: dict[float, OptimiseResult], confirm: E
     spread over their FoM range, scored again at the confirm level; Spearman between the two."""
     from scipy.stats import spearmanr
 
-    from .search import History, family
+    from .search import History, row_plane
 
     fam = family(shape)
     seen = {}
@@ -99,8 +98,7 @@ def fidelity_ladder(shape: str, results: dict[float, OptimiseResult], confirm: E
     picks = [pool[int(i)] for i in np.unique(np.linspace(0, len(pool) - 1, min(count, len(pool))).round())] if pool else []
     rows = []
     for i, r in enumerate(picks):
-        # a seed preset is solved as itself (its beam is presets.csv's), not as a family member
-        plane = PRESETS[r["name"]] if r.get("name") in PRESETS else fam.build(np.array(r["x"]), r["integer"])
+        plane = row_plane(fam, r)
         fine = _fom(Candidate(f"{shape}-ladder-{i}", plane=plane), confirm, evaluate_fn)
         rows.append({"design": json.dumps(r["params"]), "area_m2": r["area_m2"], "search_fom_mk": r["fom_mk"],
                      "search_mesh_m": r.get("mesh_m"), "confirm_fom_mk": fine, "confirm_mesh_m": confirm.spacing})
@@ -139,14 +137,6 @@ def pareto_front(shape: str, budgets: list[float], settings: EvalSettings, confi
     return Front(rows, presets, lad, rho, results)
 
 
-def write_csv(path: Path, rows: list[dict], columns) -> None:
-    """A table as CSV, replaced atomically."""
-    with atomic_path(path, suffix=".tmp.csv") as tmp, open(tmp, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(columns), extrasaction="ignore")
-        w.writeheader()
-        w.writerows(rows)
-
-
 def best_preset_within(presets: list[dict], area_m2: float) -> dict | None:
     """The lowest-FoM preset (not the PEC floor) using no more metal than ``area_m2``."""
     fit = [p for p in presets if p["preset"] != "pec" and p["fom_mk"] is not None
@@ -179,7 +169,7 @@ def verdicts(front: Front, target: float = 0.25) -> list[str]:
 
 def pareto_figure(front: Front, path: Path) -> Path:
     """FoM vs metal area: the front, the presets and the PEC floor on the same axes."""
-    from groundplane.plots import pyplot, save_figure
+    from groundplane.plots import finish_figure, pyplot
 
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 5))
@@ -201,21 +191,13 @@ def pareto_figure(front: Front, path: Path) -> Path:
     ax.set(xlabel="metal area (m$^2$)", ylabel="LST-averaged FoM (mK)", title="Metal vs chromaticity")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    save_figure(fig, path)
-    plt.close(fig)
-    return path
-
-
-def rounded(v: Any, digits: int = 1) -> str:
-    """A number for a table, or - when there is none."""
-    return "-" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.{digits}f}"
+    return finish_figure(fig, path)
 
 
 def convergence_figure(front: Front, path: Path) -> Path:
     """Best-so-far FoM (search level) against solves, one line per budget, exploration and
     refinement marked: a flat second half says the search has stopped finding better designs."""
-    from groundplane.plots import pyplot, save_figure
+    from groundplane.plots import finish_figure, pyplot
 
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 4.5))
@@ -231,10 +213,7 @@ def convergence_figure(front: Front, path: Path) -> Path:
            title="Search convergence per metal budget")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, title="budget")
-    fig.tight_layout()
-    save_figure(fig, path)
-    plt.close(fig)
-    return path
+    return finish_figure(fig, path)
 
 
 def write_report(front: Front, out: Path, command: str, settings: EvalSettings, confirm: EvalSettings) -> Path:
@@ -256,15 +235,15 @@ def write_report(front: Front, out: Path, command: str, settings: EvalSettings, 
              "| budget (m^2) | area (m^2) | FoM, confirm level (mK) | search level (mK) | answer mesh (mK) | solves | design |",
              "|---|---|---|---|---|---|---|"]
     for r in front.rows:
-        ans = f"{rounded(r.get('answer_fom_mk'))} ({r['answer_mesh_m']:g} m)" if r.get("answer_mesh_m") else "-"
-        lines.append(f"| {r['budget_m2']:g} | {rounded(r['area_m2'])} | {rounded(r['fom_mk'])} | "
-                     f"{rounded(r.get('search_fom_mk'))} | {ans} | {r['evaluations']} | `{r['design'] or '-'}` |")
+        ans = f"{cell(r.get('answer_fom_mk'))} ({r['answer_mesh_m']:g} m)" if r.get("answer_mesh_m") else "-"
+        lines.append(f"| {r['budget_m2']:g} | {cell(r['area_m2'])} | {cell(r['fom_mk'])} | "
+                     f"{cell(r.get('search_fom_mk'))} | {ans} | {r['evaluations']} | `{r['design'] or '-'}` |")
     lines += ["", "| preset | area (m^2) | FoM, confirm level (mK) |", "|---|---|---|"]
-    lines += [f"| {p['preset']} | {p['area_m2']:.0f} | {rounded(p['fom_mk'])} |" for p in front.presets]
+    lines += [f"| {p['preset']} | {p['area_m2']:.0f} | {cell(p['fom_mk'])} |" for p in front.presets]
     lines += ["", "## Against the presets (computed from the rows)", "", *verdicts(front)]
     if front.ladder:
         lines += ["", f"Fidelity ladder: {len(front.ladder)} designs the searches scored, spread over their FoM range, "
-                  f"scored again at the confirm level (`ladder.csv`): Spearman **{rounded(front.ladder_spearman, 2)}** "
+                  f"scored again at the confirm level (`ladder.csv`): Spearman **{cell(front.ladder_spearman, 2)}** "
                   "between the two levels."]
     lines += ["", "![FoM vs metal area](pareto.png)", "", "![convergence](convergence.png)", "",
               "Each budget's search (history, confirmations) is in `budget-<A>/`; its answer as `answer-<A>.step` "

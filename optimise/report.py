@@ -127,10 +127,10 @@ def _ranking(ok: list[dict[str, Any]]) -> tuple[list[str], list[list[str]]]:
               "LST-averaged FoM (mK)", "FoM, G(nu) smoothed (mK)", "narrow-band rms", "solve (s)"]
     cells = []
     for label, r in zip(_rank_labels(ok), ok):
-        cells.append([label, r["name"], str(r.get("shape")), _params(r), _f(r.get("metal_area_m2")),
-                      _f(r.get("extent_m")), f"{r['lst_averaged_fom_mk']:.1f}", _f(r.get("fom_smoothed_mk")),
+        cells.append([label, r["name"], str(r.get("shape")), _params(r), cell(r.get("metal_area_m2")),
+                      cell(r.get("extent_m")), f"{r['lst_averaged_fom_mk']:.1f}", cell(r.get("fom_smoothed_mk")),
                       "-" if r.get("narrow_band_rms") is None else f"{r['narrow_band_rms']:.1e}",
-                      _f(r.get("solve_s"), 0)])
+                      cell(r.get("solve_s"), 0)])
     return header, cells
 
 
@@ -158,8 +158,9 @@ def _html(title: str, paragraphs: list[str], header: list[str], cells: list[list
             f"{('<h2>Figures</h2>' + imgs) if imgs else ''}</body></html>")
 
 
-def _f(v: Any, nd: int = 1) -> str:
-    return "-" if v is None else f"{v:.{nd}f}"
+def cell(v: Any, nd: int = 1) -> str:
+    """A number for a table, or - when there is none (or it is not finite)."""
+    return "-" if v is None or not np.isfinite(v) else f"{v:.{nd}f}"
 
 
 def _figures(ok: list[dict[str, Any]], out: Path) -> dict[str, Path]:

@@ -18,6 +18,7 @@ from groundplane.errors import UserInputError
 from groundplane.files import atomic_path
 
 from .evaluate import Candidate, EvalSettings, evaluate
+from .report import cell
 from .search import OptimiseResult, best_plane, optimise
 
 # the corners of the paper's section 5 ranges (eps_r 2.5-5, sigma 0.005-0.05 S/m) and the MRO soil
@@ -88,7 +89,7 @@ def write_robust_report(shape: str, max_area: float, mode: str, nominal: Optimis
              f"Robust: the best {mode} FoM over the grid below: `{design(robust)}`.", "",
              "| eps_r | sigma (S/m) | nominal answer (mK) | robust answer (mK) |", "|---|---|---|---|"]
     for r in table:
-        lines.append(f"| {r['eps_r']:g} | {r['sigma']:g} | {_mk(r['nominal_fom_mk'])} | {_mk(r['robust_fom_mk'])} |")
+        lines.append(f"| {r['eps_r']:g} | {r['sigma']:g} | {cell(r['nominal_fom_mk'])} | {cell(r['robust_fom_mk'])} |")
     stats = {}
     for which in ("nominal", "robust"):
         v = [r[f"{which}_fom_mk"] for r in table if r[f"{which}_fom_mk"] is not None]
@@ -106,7 +107,3 @@ def write_robust_report(shape: str, max_area: float, mode: str, nominal: Optimis
     with atomic_path(path, suffix=".tmp.md") as tmp:
         tmp.write_text("\n".join(lines) + "\n")
     return path
-
-
-def _mk(v: float | None) -> str:
-    return "-" if v is None else f"{v:.1f}"

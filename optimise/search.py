@@ -236,8 +236,7 @@ def _confirm(ev: "_Evaluator", fine: EvalSettings, out: Path, top: int, progress
             if progress:
                 print(f"  confirm {i}/{len(picked)} at {fine.spacing:g} m: {r.get('name')} "
                       f"({r['fom_mk']:.1f} mK at the search level)", file=sys.stderr, flush=True)
-            plane = ev.fam.build(np.array(r["x"]), r["integer"])
-            res = ev.evaluate_fn(Candidate(f"{ev.shape}-confirm-{i}", plane=plane), fine)
+            res = ev.evaluate_fn(Candidate(f"{ev.shape}-confirm-{i}", plane=row_plane(ev.fam, r)), fine)
             fom = res.get("lst_averaged_fom_mk") if res.get("status") == "ok" else None
             done[k] = {**r, "search_fom_mk": r["fom_mk"], "fom_mk": fom, "confirmed_at": fine.spacing,
                        "confirm_level": level, "status": "ok" if fom is not None else "failed"}
@@ -539,6 +538,16 @@ def _zero(grad: np.ndarray) -> float:
     return 0.0
 
 
+def row_plane(fam: Family, row: dict[str, Any]) -> GroundPlane:
+    """The plane a history row was solved as: a seed preset as itself (so its confirmations and
+    answers reuse the preset's beams), any other row as the family member of its x."""
+    from groundplane.shapes import PRESETS
+
+    if row.get("phase") == "seed" and row.get("name") in PRESETS:
+        return PRESETS[row["name"]]
+    return fam.build(np.array(row["x"]), row["integer"])
+
+
 def best_plane(shape: str, best: dict[str, Any]) -> GroundPlane:
     """The plane of a history row."""
-    return family(shape).build(np.array(best["x"]), best["integer"])
+    return row_plane(family(shape), best)

@@ -1,10 +1,8 @@
 """Helpers shared by the studies (not a study itself)."""
 from __future__ import annotations
 
-import csv
 import platform
 import time
-from pathlib import Path
 from typing import Iterable
 
 import numpy as np
@@ -12,6 +10,7 @@ import numpy as np
 from groundplane import paper
 from groundplane.beam import Beam
 from groundplane.design import Design
+from groundplane.files import write_csv  # noqa: F401 - the studies' CSV writer
 from groundplane.fom import FomSettings, figure_of_merit
 from solvers.engines import DEFAULT_FREQS_MHZ
 from solvers.engines.nec import NecSettings, NecSolver
@@ -51,10 +50,9 @@ def zenith_dbi(beam: Beam, f: float = 75.0) -> float:
 
 def efficiency(beam: Beam, f: float = 75.0) -> float:
     """Upper-hemisphere mean gain / 2 at ``f``: the fraction of power not lost in the soil."""
-    i = int(np.argmin(np.abs(beam.freqs_mhz - f)))
-    w = beam.solid_angle_weights()
-    g = beam.gain[i][: w.shape[0]]
-    return float((g * w).sum() / w.sum() / 2)
+    from groundplane.compare import upper_hemisphere_efficiency
+
+    return float(upper_hemisphere_efficiency(beam)[int(np.argmin(np.abs(beam.freqs_mhz - f)))])
 
 
 def narrow_rms(beam: Beam, degree: int = 12) -> float:
@@ -68,16 +66,6 @@ def verdict(condition: bool, holds: str, fails: str) -> str:
     """A report's conclusion as a condition on its rows: the sentence for the outcome the
     numbers give (both are written, so a rerun that changes the numbers changes the verdict)."""
     return holds if condition else fails
-
-
-def write_csv(path: Path, rows: list[dict], fieldnames: list[str] | None = None) -> None:
-    """A study's table as CSV, replaced atomically (a rerun or a kill never leaves half a file)."""
-    from groundplane.files import atomic_path
-
-    with atomic_path(path, suffix=".tmp.csv") as tmp, open(tmp, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=fieldnames or list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
 
 
 def machine() -> str:
