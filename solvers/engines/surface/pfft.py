@@ -267,37 +267,16 @@ def _grid_kernels(model: FastModel, k: float, weights, kernels) -> tuple[np.ndar
     return scipy.fft.fft2(circ, axes=(-2, -1), workers=1), table
 
 
-_ANTIDIAGONAL = np.zeros((16, 7))  # (a, b) of two 4-point stencils -> offset a - b + 3
-for _a in range(4):
-    for _b in range(4):
-        _ANTIDIAGONAL[4 * _a + _b, _a - _b + 3] = 1.0
-
-
 def _grid_pair_values(model: FastModel, table: np.ndarray, pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """What the grid puts in for each point pair of triangle pairs: [P, 3, 3] for the vector
     and scalar kernels. The stencils are separable, so each point pair sees a 7 x 7 window
     of kernel offsets weighted by the correlation of its x stencils times that of its y."""
+    from ._compiled import grid_pair_values
+
     g = model.grid
-    o, s = pairs[:, 0], pairs[:, 1]
     ix, iy, wx, wy = model.stencils  # [T, 3], [T, 3, 4]
-
-    def correlate(w: np.ndarray) -> np.ndarray:  # c[d] = sum_{a - b = d - 3} w_o[a] w_s[b], [P, 3, 3, 7]
-        outer = w[o][:, :, None, :, None] * w[s][:, None, :, None, :]
-        return outer.reshape(*outer.shape[:3], 16) @ _ANTIDIAGONAL
-
-    cxy = (correlate(wx)[..., :, None] * correlate(wy)[..., None, :]).reshape(len(pairs), 3, 3, 49)
-    nl, _, _, nxo, nyo = table.shape
-    flat = table.reshape(-1)
-    d = np.arange(-3, 4)
-    window = (d[:, None] * nyo + d[None, :]).ravel()  # 49 offsets around the centre
-    centre = ((ix[o][:, :, None] - ix[s][:, None, :] + g.nx - 1) * nyo
-              + iy[o][:, :, None] - iy[s][:, None, :] + g.ny - 1)
-    layer = (model.level[o] * nl + model.level[s])[:, None, None] * 2
-    out = []
-    for which in (0, 1):
-        at = (layer + which) * (nxo * nyo) + centre
-        out.append((flat[at[..., None] + window] * cxy).sum(axis=-1))
-    return out[0], out[1]
+    return grid_pair_values(np.ascontiguousarray(table), np.ascontiguousarray(pairs, dtype=np.int64),
+                            ix, iy, wx, wy, model.level.astype(np.int64), g.nx, g.ny)
 
 
 def _pair_moments(model: FastModel, pairs: np.ndarray, k: float, weights, kernels,

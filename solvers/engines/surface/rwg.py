@@ -626,7 +626,7 @@ def solve(prob: Problem, freq_hz: float, symmetry: MirrorSymmetry | None = None)
 
 
 def gain_pattern(prob: Problem, sol: Solution, theta_deg: np.ndarray, phi_deg: np.ndarray,
-                 chunk: int = 400, mirrored_currents: bool = False) -> np.ndarray:
+                 mirrored_currents: bool = False) -> np.ndarray:
     """Linear power gain G(theta, phi) = 4 pi U / P_in on the grid (theta rows, phi columns).
 
     ``mirrored_currents``: the currents are in the x-driven mirror class (solved with
@@ -643,27 +643,17 @@ def gain_pattern(prob: Problem, sol: Solution, theta_deg: np.ndarray, phi_deg: n
     if mirrored_currents:
         first = (p[:, 0] > 0) & (p[:, 1] > 0)  # every triangle lies in one quadrant (meshes are mirrored)
         p, jw = p[first], jw[first]
+    from ._compiled import current_moments
+
     levels, level = np.unique(np.round(p[:, 2], 9), return_inverse=True)  # flat metal: a few heights
     th, ph = np.meshgrid(np.radians(theta_deg), np.radians(phi_deg), indexing="ij")
     th, ph = th.ravel(), ph.ravel()
-    direct = np.zeros((th.size, 2), dtype=complex)
-    mirrored = np.zeros((th.size, 2), dtype=complex)  # the same currents' image at -z
-    for s in range(0, th.size, chunk):
-        t_, f_ = th[s:s + chunk], ph[s:s + chunk]
-        sx, sy, cz = np.sin(t_) * np.cos(f_), np.sin(t_) * np.sin(f_), np.cos(t_)
-        for lev, z in enumerate(levels):  # exp(jk s.r) = exp(jk (x sx + y sy)) exp(jk z cz)
-            on = level == lev
-            if mirrored_currents:
-                ex = np.exp(1j * k * np.outer(p[on, 0], sx))
-                ey = np.exp(1j * k * np.outer(p[on, 1], sy))
-                moment = np.stack([4 * (ex.real * ey.real).T @ jw[on, 0],
-                                   -4 * (ex.imag * ey.imag).T @ jw[on, 1]], axis=-1)
-            else:
-                horiz = np.exp(1j * k * (np.outer(p[on, 0], sx) + np.outer(p[on, 1], sy)))
-                moment = horiz.T @ jw[on]
-            direct[s:s + chunk] += np.exp(1j * k * z * cz)[:, None] * moment
-            if prob.ground != "free":
-                mirrored[s:s + chunk] += np.exp(-1j * k * z * cz)[:, None] * moment
+    # exp(jk s.r) = exp(jk (x sx + y sy)) exp(jk z cz): one horizontal moment per metal level
+    moment = current_moments(p, np.ascontiguousarray(jw), level.astype(np.int64), len(levels), k,
+                             np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), mirrored_currents)
+    up = np.exp(1j * k * np.outer(np.cos(th), levels))  # [D, n_levels]
+    direct = np.einsum("dl,dlc->dc", up, moment)
+    mirrored = np.einsum("dl,dlc->dc", up.conj(), moment) if prob.ground != "free" else np.zeros_like(direct)
     # theta and phi parts of the horizontal current moment; the image reflects them by R_v, R_h
     if prob.ground == "soil":
         r_v, r_h = fresnel(np.cos(th), soil_permittivity(*prob.soil, sol.freq_hz))

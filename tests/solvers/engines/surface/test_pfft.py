@@ -121,3 +121,30 @@ def test_far_field_from_the_first_quadrant_is_the_whole_far_field():
     full = gain_pattern(prob, sol, th, th)
     quarter = gain_pattern(prob, sol, th, th, mirrored_currents=True)
     assert np.allclose(quarter, full, rtol=1e-10)
+
+
+def test_grid_pair_values_are_the_two_stencils_summed_over_the_kernel_table():
+    """The compiled precorrection loop against its definition: sum over the observation and
+    source points' 4 x 4 stencils of w_o w_s K[node_o - node_s], node by node."""
+    prob = _problem("soil")
+    model = pfft.fast_model(prob, True)
+    g = model.grid
+    rng = np.random.default_rng(3)
+    nl = len(g.levels)
+    table = rng.normal(size=(nl, nl, 2, 2 * g.nx - 1, 2 * g.ny - 1)) * (1 + 1j)
+    pairs = model.pairs[rng.choice(len(model.pairs), 40, replace=False)]
+    va, vq = pfft._grid_pair_values(model, table, pairs)
+    ix, iy, wx, wy = model.stencils
+    for p, (o, s) in enumerate(pairs):
+        for i in range(3):
+            for j in range(3):
+                want = np.zeros(2, complex)
+                for a in range(4):
+                    for b in range(4):
+                        for c in range(4):
+                            for d in range(4):
+                                dx = ix[o, i] + a - ix[s, j] - c + g.nx - 1
+                                dy = iy[o, i] + b - iy[s, j] - d + g.ny - 1
+                                w = wx[o, i, a] * wy[o, i, b] * wx[s, j, c] * wy[s, j, d]
+                                want += w * table[model.level[o], model.level[s], :, dx, dy]
+                assert np.allclose([va[p, i, j], vq[p, i, j]], want, rtol=1e-12, atol=0)
