@@ -23,6 +23,7 @@ import hashlib
 import json
 import math
 from dataclasses import dataclass, field, fields
+from pathlib import Path
 from typing import Any, Callable, ClassVar, get_type_hints
 
 import numpy as np
@@ -571,3 +572,39 @@ def to_dict(shape: GroundPlane) -> dict[str, Any]:
     if isinstance(shape, PolygonPlane):
         d["vertices"] = [list(p) for p in shape.vertices]
     return {"shape": shape.kind, **d}
+
+
+def from_file(path: str | Path) -> GroundPlane:
+    """A design saved as JSON: ``{"shape": kind, **params}`` (:func:`to_dict`), ``{"preset": name}``,
+    or an optimiser's ``best.json`` (its ``params``; the family from ``shape``, the ``search.json``
+    beside it, or the class named in ``name``)."""
+    import json
+
+    path = Path(path)
+    try:
+        d = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise ShapeError(f"{path}: no such design file") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ShapeError(f"{path}: not a design file (not readable JSON: {exc})") from None
+    if not isinstance(d, dict):
+        raise ShapeError(f"{path}: not a design file (expected a JSON object with 'shape' or 'preset')")
+    if "shape" in d and "params" not in d or "preset" in d:
+        return from_dict(d)
+    if isinstance(d.get("params"), dict):
+        kind = d.get("shape")
+        search = path.with_name("search.json")
+        if kind is None and search.exists():
+            try:
+                kind = json.loads(search.read_text()).get("shape")
+            except (OSError, ValueError, AttributeError):
+                kind = None
+        if kind is None and isinstance(d.get("name"), str):
+            by_class = {cls.__name__: k for k, cls in SHAPES.items()}
+            kind = by_class.get(d["name"].split("(")[0])
+        if kind is None:
+            raise ShapeError(f"{path}: the design's family is not named ('shape', a search.json beside it, "
+                             "or a 'name' like 'Teeth(...)')")
+        return from_dict({"shape": kind, **d["params"]})
+    raise ShapeError(f"{path}: not a design file (expected 'shape' with its parameters, 'preset', "
+                     "or an optimiser's best.json with 'params')")

@@ -229,6 +229,77 @@ def _history_plot(plt, history, path: Path, max_area: float) -> None:
     plt.close(fig)
 
 
+@command("fabricate", "cut a design from welded wire-mesh sheets: DXF outline, sheet plan, cut list, mass")
+def _setup_fabricate(p: argparse.ArgumentParser):
+    from groundplane.cli import add_shape_options
+
+    add_shape_options(p, required=False)
+    p.add_argument("--design", metavar="FILE.json", help="a saved design (an optimiser's best.json, or {\"shape\": ...})")
+    p.add_argument("--sheet", type=float, nargs=2, metavar=("WIDTH", "LENGTH"), default=(2.4, 6.0),
+                   help="stock mesh sheet in m (default 2.4 6.0)")
+    p.add_argument("--overlap", type=float, default=0.10, help="overlap between neighbouring sheets, m (default 0.10)")
+    p.add_argument("--grid", type=float, default=0.05, help="mesh grid pitch, m (default 0.05: EDGES's)")
+    p.add_argument("--wire-diameter", type=float, default=0.003, help="wire diameter, m (default 0.003; not published)")
+    p.add_argument("--snap-to-sheet", action="store_true",
+                   help="plan the nearest design whose teeth are whole half-sheet widths instead, and solve both "
+                        "(the solver and FoM options below) to report the metal and FoM change (snap.json)")
+    add_eval_options(p)
+    p.add_argument("-o", "--out", required=True, help="output folder")
+    return _run_fabricate
+
+
+def _run_fabricate(args: argparse.Namespace) -> int:
+    from groundplane import fabricate as fab
+    from groundplane.cli import shape_from_args
+    from groundplane.shapes import from_file
+
+    plane = shape_from_args(args)
+    if (plane is None) == (args.design is None):
+        raise CLIError("give one design: --preset NAME, a shape with its parameters, or --design FILE.json")
+    plane = plane or from_file(args.design)
+    sheet = fab.MeshSheet(width=args.sheet[0], length=args.sheet[1], overlap=args.overlap, grid=args.grid,
+                          wire_diameter=args.wire_diameter)
+    out = check_output_dir(Path(args.out))
+    snap = None
+    if args.snap_to_sheet:
+        snapped, moved = fab.snap_to_sheet(plane, sheet)
+        snap = _snap_report(plane, snapped, moved, eval_settings(args), out)
+        plane = snapped
+    summary = fab.write_plan(fab.plan_sheets(plane, sheet), out)
+    print(f"{summary['design']}: {summary['sheets_bought']} sheets ({summary['sheets_full']} whole, "
+          f"{summary['sheets_cut']} cut), waste {summary['waste_percent']:.1f} %, seams {summary['seam_length_m']:.1f} m, "
+          f"mesh {summary['mass_kg']:.0f} kg; outline.dxf, plan.png/.svg, cutlist.csv, plan.json in {out}")
+    if snap:
+        print(snap)
+    return 0
+
+
+def _snap_report(plane, snapped, moved: dict, settings: "EvalSettings", out: Path) -> str:
+    """Solve the design and its buildable neighbour with the same settings; snap.json; one line."""
+    from groundplane.errors import SolveError
+    from groundplane.files import atomic_path
+    from groundplane.shapes import to_dict
+
+    from .evaluate import Candidate, evaluate
+
+    if not moved:
+        return f"--snap-to-sheet: {plane.describe()} is already cut from whole half-sheet widths; nothing moved"
+    rows = [evaluate(Candidate(name, p), settings, progress=True) for name, p in (("designed", plane), ("snapped", snapped))]
+    bad = [r for r in rows if r["status"] != "ok"]
+    if bad:
+        raise SolveError(f"--snap-to-sheet: solving the {bad[0]['name']} design failed: {bad[0].get('error')}")
+    d_area = snapped.metal_area - plane.metal_area
+    d_fom = rows[1]["fom_mk"] - rows[0]["fom_mk"]
+    report = {"designed": to_dict(plane), "snapped": to_dict(snapped), "moved": {k: list(v) for k, v in moved.items()},
+              "metal_area_m2": [plane.metal_area, snapped.metal_area], "fom_mk": [rows[0]["fom_mk"], rows[1]["fom_mk"]],
+              "settings": settings.describe(), "command": invocation()}
+    with atomic_path(out / "snap.json", suffix=".tmp.json") as tmp:
+        tmp.write_text(json.dumps(report, indent=1))
+    what = ", ".join(f"{k} {a:g} -> {b:g} m" for k, (a, b) in moved.items())
+    return (f"snapped to the sheet: {what}; metal {plane.metal_area:.1f} -> {snapped.metal_area:.1f} m^2 ({d_area:+.1f}); "
+            f"FoM {rows[0]['fom_mk']:.1f} -> {rows[1]['fom_mk']:.1f} mK ({d_fom:+.1f}, {100 * d_fom / rows[0]['fom_mk']:+.1f} %)")
+
+
 @command("study", "run a study: the paper's reproductions (design-study, soil-sweep) and the model studies")
 def _setup_study(p: argparse.ArgumentParser):
     from .studies import STUDIES
