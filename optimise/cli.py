@@ -284,20 +284,21 @@ def _snap_report(plane, snapped, moved: dict, settings: "EvalSettings", out: Pat
 
     if not moved:
         return f"--snap-to-sheet: {plane.describe()} is already cut from whole half-sheet widths; nothing moved"
-    rows = [evaluate(Candidate(name, p), settings, progress=True) for name, p in (("designed", plane), ("snapped", snapped))]
+    rows = [evaluate(Candidate(name, p), settings, progress=True) for name, p in (("as designed", plane), ("snapped", snapped))]
     bad = [r for r in rows if r["status"] != "ok"]
     if bad:
-        raise SolveError(f"--snap-to-sheet: solving the {bad[0]['name']} design failed: {bad[0].get('error')}")
+        raise SolveError(f"--snap-to-sheet: solving the {bad[0]['name']} plane failed: {bad[0].get('error')}")
     d_area = snapped.metal_area - plane.metal_area
-    d_fom = rows[1]["fom_mk"] - rows[0]["fom_mk"]
+    fom = [r["lst_averaged_fom_mk"] for r in rows]
+    d_fom = fom[1] - fom[0]
     report = {"designed": to_dict(plane), "snapped": to_dict(snapped), "moved": {k: list(v) for k, v in moved.items()},
-              "metal_area_m2": [plane.metal_area, snapped.metal_area], "fom_mk": [rows[0]["fom_mk"], rows[1]["fom_mk"]],
+              "metal_area_m2": [plane.metal_area, snapped.metal_area], "fom_mk": fom,
               "settings": settings.describe(), "command": invocation()}
     with atomic_path(out / "snap.json", suffix=".tmp.json") as tmp:
         tmp.write_text(json.dumps(report, indent=1))
     what = ", ".join(f"{k} {a:g} -> {b:g} m" for k, (a, b) in moved.items())
     return (f"snapped to the sheet: {what}; metal {plane.metal_area:.1f} -> {snapped.metal_area:.1f} m^2 ({d_area:+.1f}); "
-            f"FoM {rows[0]['fom_mk']:.1f} -> {rows[1]['fom_mk']:.1f} mK ({d_fom:+.1f}, {100 * d_fom / rows[0]['fom_mk']:+.1f} %)")
+            f"FoM {fom[0]:.1f} -> {fom[1]:.1f} mK ({d_fom:+.1f}, {100 * d_fom / fom[0]:+.1f} %)")
 
 
 @command("study", "run a study: the paper's reproductions (design-study, soil-sweep) and the model studies")
@@ -311,6 +312,8 @@ def _setup_study(p: argparse.ArgumentParser):
     p.add_argument("--feko-dir", type=Path, help="feko-40mhz: folder of the four FEKO quadrant files")
     p.add_argument("--cached-only", action="store_true",
                    help="soil-surface: report the rows already solved and name the rest (an interim report)")
+    p.add_argument("--preset", dest="study_preset", metavar="NAME", help="tolerance: the design (default extended)")
+    p.add_argument("--draws", type=int, metavar="N", help="tolerance: Monte-Carlo draws per corner error (default 3)")
     add_eval_options(p)
     return _run_study_cmd
 
@@ -334,6 +337,17 @@ def _run_study_cmd(args: argparse.Namespace) -> int:
         if args.name != "soil-surface":
             raise CLIError("--cached-only is for soil-surface")
         extra["cached_only"] = True
+    for key, flag, into in (("study_preset", "--preset", "preset_name"), ("draws", "--draws", "draws")):
+        if getattr(args, key) is not None:
+            if args.name != "tolerance":
+                raise CLIError(f"{flag} is for tolerance")
+            extra[into] = getattr(args, key)
+    if extra.get("preset_name") is not None:
+        from groundplane.shapes import preset
+
+        preset(extra["preset_name"])  # an unknown name is refused here, before any solve
+    if extra.get("draws") is not None and extra["draws"] < 1:
+        raise CLIError("--draws must be >= 1")
     settings = None
     if s.uses_settings:
         settings = eval_settings(args)
