@@ -422,8 +422,9 @@ def check_layout(plan: SheetPlan) -> float:
     return plan.plane.outline().difference(unary_union([p.in_plane for p in plan.pieces])).area
 
 
-def write_plan(plan: SheetPlan, out: Path) -> dict[str, Any]:
-    """``outline.dxf``, ``plan.png``, ``plan.svg``, ``cutlist.csv`` and ``plan.json`` in ``out``."""
+def write_plan(plan: SheetPlan, out: Path, command: str = "") -> dict[str, Any]:
+    """``outline.dxf``, ``plan.png``, ``plan.svg``, ``cutlist.csv`` and ``plan.json`` (with the
+    ``command`` that made them) in ``out``."""
     from .files import atomic_path, write_csv
 
     out.mkdir(parents=True, exist_ok=True)
@@ -434,6 +435,8 @@ def write_plan(plan: SheetPlan, out: Path) -> dict[str, Any]:
     write_csv(out / "cutlist.csv", cutlist_rows(plan))
     summary = plan.summary()
     summary["uncovered_m2"] = check_layout(plan)
+    if command:
+        summary["command"] = command
     with atomic_path(out / "plan.json", suffix=".tmp.json") as tmp:
         tmp.write_text(json.dumps(summary, indent=1))
     return summary
