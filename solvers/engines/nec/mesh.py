@@ -390,6 +390,15 @@ def _wire_grid_defects(edges: np.ndarray, tol: float = 1e-6) -> tuple[np.ndarray
     return i[~ok], j[~ok]
 
 
+GROUND_PLANE_FRACTION = 1e-3  # NEC-2 (CONECT): a segment whose ends are both within this x its length of z = 0 lies in the ground
+
+
+def estimated_segments(plane: GroundPlane, spacing: float) -> int:
+    """The plate's segment count before meshing (a square grid holds 2 / spacing m of wire per
+    m^2, one segment per spacing): a mesh too fine to fit is refused before it is built."""
+    return int(2 * plane.metal_area / spacing ** 2)
+
+
 def check_wire_grid(edges: np.ndarray, label: str = "plate") -> None:
     """Raise SolveError unless wires meet only at shared ends: NEC refuses a wire crossing or
     touching another's interior, and says only "WIRE #5 INTERSECTS WIRE #6"; this names where."""
@@ -422,10 +431,17 @@ def build_model(design: Design, settings: NecSettings) -> NecModel:
     edges = plate_edges(design.plane, settings.spacing, settings.merge_fraction, settings.refine_half_width,
                         settings.refine_factor)
     check_wire_grid(edges, f"{design.label()} at a {settings.spacing:g} m mesh")
+    longest = 0.0
     for (ax, ay), (bx, by) in edges:
         length = math.hypot(bx - ax, by - ay)
-        model.add((ax, ay, zp), (bx, by, zp), settings.plate_wire_radius,
-                  max(1, math.ceil(length / settings.spacing - 1e-9)))
+        n = max(1, math.ceil(length / settings.spacing - 1e-9))
+        longest = max(longest, length / n)
+        model.add((ax, ay, zp), (bx, by, zp), settings.plate_wire_radius, n)
+    if model.ground != "free" and zp <= GROUND_PLANE_FRACTION * longest:
+        raise SettingsError(
+            f"{design.label()}: NEC-2 takes a wire lower than 1/{1 / GROUND_PLANE_FRACTION:.0f} of its segment length "
+            f"to lie in the ground plane, and the plate's longest segment is {longest:.3g} m at {zp:g} m up: use "
+            f"--mesh below {zp / GROUND_PLANE_FRACTION:.3g} m or a higher --plate-height")
     add_blade(model, design.antenna, zp + design.antenna.height, settings)
     return _folded(model, settings)
 

@@ -32,7 +32,7 @@ from groundplane.sky import cache_dir
 
 from ..base import FrequencySolver, Plan, available_memory_bytes, register_engine
 from . import engine
-from .mesh import NecModel, NecSettings, build_model, pec_reference_model
+from .mesh import NecModel, NecSettings, build_model, estimated_segments, pec_reference_model
 
 MODEL_VERSION = 2  # bump when the model changes: the cache key includes it
 # 2: split feed (two half-gap segments, V/2 each) for the GR symmetry; far field on a coarse
@@ -73,9 +73,18 @@ class NecSolver(FrequencySolver):
         engine.check_engine(ground, allow_unverified=self.allow_unverified_engine, in_process=self.workers == 0)
 
     def plan(self, design: Design) -> Plan:
+        if design.plane is not None:  # a mesh far too fine is refused before it is built (that alone can take hours)
+            est = estimated_segments(design.plane, self.settings.spacing)
+            need = 16 * est ** 2 // 2 * max(1, self.workers)  # even with NEC's 2-section symmetry
+            have = available_memory_bytes()
+            if have is not None and need > 0.8 * have:
+                raise SettingsError(
+                    f"{design.label()}: a {self.settings.spacing:g} m mesh of {design.plane.metal_area:.0f} m^2 makes "
+                    f"about {est} plate segments, whose NEC matrices need about {need / 2**30:.0f} GiB on "
+                    f"{max(1, self.workers)} process(es); {have / 2**30:.1f} GiB is available. Use a coarser --mesh.")
         try:
             model = build_model(design, self.settings)
-        except SolveError:
+        except (SolveError, SettingsError):
             raise
         except Exception as exc:  # shapely/geometry trouble: name the candidate
             raise SolveError(f"{design.label()}: could not mesh the model ({exc})") from exc

@@ -105,5 +105,31 @@ def test_a_model_too_big_for_memory_is_refused_before_any_solve(tmp_path, monkey
     monkeypatch.setattr(engine, "_GOLDEN_OK", {"pynec-accel-1.7.6": -3.23})
     monkeypatch.setattr(engine, "radiation_pattern", lambda *a: (_ for _ in ()).throw(AssertionError("solved")))
     monkeypatch.setattr(nec_solver, "available_memory_bytes", lambda: 2 * 2**30)  # a 2 GiB machine
-    with pytest.raises(SettingsError, match=r"Square\(side=10.0\).*segments need about .* GiB .* 2.0 GiB is available"):
+    with pytest.raises(SettingsError, match=r"Square\(side=10.0\).*segments.*need about .* GiB .* 2.0 GiB is available"):
         NecSolver(NecSettings(spacing=0.1), workers=0, progress=False).solve(Design(Square(10.0), Soil()), [60.0])
+
+
+def test_a_mesh_nec_would_put_in_the_ground_is_refused_before_solving():
+    """NEC-2 takes a segment lower than 1/1000 of its length as lying in the ground plane."""
+    from groundplane.design import Design, Soil
+    from groundplane.errors import SettingsError
+    from groundplane.shapes import preset
+    from solvers.engines.nec import NecSettings, NecSolver
+
+    with pytest.raises(SettingsError, match="use --mesh below 5 m or a higher --plate-height"):
+        NecSolver(NecSettings(spacing=5.0)).plan(Design(preset("square-10"), Soil()))
+    NecSolver(NecSettings(spacing=4.9)).plan(Design(preset("square-10"), Soil()))  # 4.9 mm: above the limit
+
+
+def test_a_mesh_too_fine_to_fit_is_refused_before_it_is_built():
+    import time
+
+    from groundplane.design import Design, Soil
+    from groundplane.errors import SettingsError
+    from groundplane.shapes import preset
+    from solvers.engines.nec import NecSettings, NecSolver
+
+    t0 = time.perf_counter()
+    with pytest.raises(SettingsError, match="about 2000000 plate segments"):
+        NecSolver(NecSettings(spacing=0.01, plate_wire_radius=0.001)).plan(Design(preset("square-10"), Soil()))
+    assert time.perf_counter() - t0 < 5.0  # refused from the outline, not after meshing (that took minutes)
