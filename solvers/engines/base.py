@@ -10,6 +10,7 @@ import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, ClassVar, Iterable, Protocol, runtime_checkable
@@ -324,16 +325,19 @@ class FrequencySolver:
             return hit
         self.check(design)
         plan = self.plan(design)
-        results = cache.partial(key) if cache is not None else {}
-        todo = [float(f) for f in freqs if float(f) not in results]
-        for f, gain, extras, secs in self._run(plan, todo, design, freqs.size):
-            results[f] = (gain, secs, extras)
+        with cache.lock(key, f"{self.name} {plan.label}") if cache is not None else nullcontext():
+            if cache is not None and (hit := cache.get(key)) is not None:  # solved by another process meanwhile
+                return hit
+            results = cache.partial(key) if cache is not None else {}
+            todo = [float(f) for f in freqs if float(f) not in results]
+            for f, gain, extras, secs in self._run(plan, todo, design, freqs.size):
+                results[f] = (gain, secs, extras)
+                if cache is not None:
+                    cache.put_partial(key, f, gain, secs, **extras)
+            beam = self._assemble(design, freqs, plan, results, key)
             if cache is not None:
-                cache.put_partial(key, f, gain, secs, **extras)
-        beam = self._assemble(design, freqs, plan, results, key)
-        if cache is not None:
-            cache.put(key, beam)
-        return beam
+                cache.put(key, beam)
+            return beam
 
     def _run(self, plan: Plan, todo: list[float], design: Design, n_total: int):
         """Yield (freq, gain, extras, seconds) as frequencies finish (saved one by one).

@@ -9,7 +9,10 @@ another key) is deleted and recomputed, never trusted.
 from __future__ import annotations
 
 import shutil
+import sys
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 
@@ -57,6 +60,34 @@ class BeamCache:
             return self.path(key)
         shutil.rmtree(self.root / "partial" / key, ignore_errors=True)
         return p
+
+    @contextmanager
+    def lock(self, key: str, label: str = "") -> Iterator[None]:
+        """Hold ``key`` for one solve at a time: a second process asking for the same design
+        waits for the first, then reads its beam from the cache instead of solving it again.
+        Holding it, stray temp files of this key (a write interrupted by a kill) are removed.
+        An advisory ``flock`` (POSIX; the lock goes with its process, even on ``kill -9``)."""
+        import fcntl
+
+        try:
+            (self.root / "locks").mkdir(parents=True, exist_ok=True)
+            fh = open(self.root / "locks" / f"{key}.lock", "a")
+        except OSError:  # a cache we cannot write: no lock, and nothing of ours to clean either
+            yield
+            return
+        with fh:
+            try:
+                fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                print(f"{label or key}: another process is solving this design; waiting for it", file=sys.stderr)
+                fcntl.flock(fh, fcntl.LOCK_EX)
+            for stray in [*(self.root / "beams").glob(f"{key}.npz.*{TMP_SUFFIX}"),
+                          *(self.root / "partial" / key).glob(f"*{TMP_SUFFIX}")]:
+                stray.unlink(missing_ok=True)
+            try:
+                yield
+            finally:
+                fcntl.flock(fh, fcntl.LOCK_UN)
 
     def partial(self, key: str) -> dict[float, tuple[np.ndarray, float, dict[str, float]]]:
         """Frequencies already solved for ``key``: {freq: (gain, seconds, extras)}."""

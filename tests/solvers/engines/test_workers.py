@@ -100,3 +100,50 @@ def test_a_killed_worker_is_retried_once(tmp_path):
     solver.settings = type("S", (), {"as_dict": lambda self: {}})()
     with pytest.raises(SolveError, match=r"Square\(side=2.0\).*worker process died twice"):
         solver.solve(Design(Square(2.0), Soil()), [50.0])
+
+
+def counted(payload: str, freq: float):
+    """Worker job: note each solve, take a moment."""
+    Path(payload, f"{freq:g}-{time.monotonic_ns()}").write_text("")
+    time.sleep(0.3)
+    return np.full((91, 91), freq), {}
+
+
+def test_the_same_design_asked_twice_at_once_is_solved_once(tmp_path, monkeypatch, capsys):
+    import threading
+
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path / "cache"))
+    jobs = tmp_path / "jobs"
+    jobs.mkdir()
+
+    def make():
+        s = StandIn(counted, jobs, workers=0)
+        s.settings = type("S", (), {"as_dict": lambda self: {}})()
+        return s
+
+    beams = []
+    first = threading.Thread(target=lambda: beams.append(make().solve(Design(Square(2.0), Soil()), [50.0, 60.0])))
+    first.start()
+    time.sleep(0.15)  # the first holds the design's lock and is solving
+    beams.append(make().solve(Design(Square(2.0), Soil()), [50.0, 60.0]))
+    first.join()
+    assert len(list(jobs.iterdir())) == 2, "each frequency solved once, not once per caller"
+    assert np.array_equal(beams[0].gain, beams[1].gain)
+    assert "another process is solving this design; waiting for it" in capsys.readouterr().err
+
+
+def test_stray_temp_files_of_a_killed_write_are_cleaned_under_the_lock(tmp_path):
+    from solvers.engines.cache import TMP_SUFFIX, BeamCache
+
+    cache = BeamCache(tmp_path)
+    key = "k" * 32
+    stray_beam = tmp_path / "beams" / f"{key}.npz.abc{TMP_SUFFIX}"
+    stray_beam.write_bytes(b"half")
+    other = tmp_path / "beams" / f"{'j' * 32}.npz.abc{TMP_SUFFIX}"  # another key's: not ours to touch
+    other.write_bytes(b"half")
+    (tmp_path / "partial" / key).mkdir(parents=True)
+    stray_part = tmp_path / "partial" / key / f"50.000000.npz.xyz{TMP_SUFFIX}"
+    stray_part.write_bytes(b"half")
+    with cache.lock(key):
+        assert not stray_beam.exists() and not stray_part.exists()
+    assert other.exists()
