@@ -45,6 +45,11 @@ class Beam:
     meta: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        src = self.meta.get("source", "beam") if isinstance(self.meta, dict) else "beam"
+        for name, arr in (("freqs_mhz", self.freqs_mhz), ("theta_deg", self.theta_deg), ("phi_deg", self.phi_deg),
+                          ("gain", self.gain)):
+            if np.iscomplexobj(arr):  # a cast would drop the imaginary part in silence
+                raise BeamFormatError(f"{src}: {name} is complex; a beam holds real power gain and angles")
         f = np.asarray(self.freqs_mhz, dtype=float).ravel()
         t = np.asarray(self.theta_deg, dtype=float).ravel()
         p = np.asarray(self.phi_deg, dtype=float).ravel()
@@ -54,7 +59,6 @@ class Beam:
         object.__setattr__(self, "phi_deg", p)
         object.__setattr__(self, "gain", g)
         object.__setattr__(self, "meta", dict(self.meta))
-        src = self.meta.get("source", "beam")
         if g.shape != (f.size, t.size, p.size):
             raise BeamFormatError(
                 f"{src}: gain has shape {g.shape}, expected (n_freq, n_theta, n_phi) = "
@@ -276,6 +280,9 @@ def _json_default(obj: Any) -> Any:
     raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
 
 
+MAX_AXIS_LENGTH = 1_000_000  # frequencies, angles: far beyond any real beam (1 deg grids are 360)
+
+
 def _check_npz_sizes(path: Path) -> None:
     """Read each array's header and refuse one that declares more data than the file
     holds (a damaged or hostile file would otherwise make numpy allocate gigabytes first)."""
@@ -294,6 +301,9 @@ def _check_npz_sizes(path: Path) -> None:
             if dtype.hasobject:
                 raise BeamFormatError(f"{path}: array '{info.filename[:-4]}' holds Python objects; refused (never unpickled)")
             nbytes = int(np.prod(shape, dtype=np.float64)) * dtype.itemsize
+            if any(d > MAX_AXIS_LENGTH for d in shape):  # also when another axis is 0 (numpy refuses those itself)
+                raise BeamFormatError(f"{path}: array '{info.filename[:-4]}' declares shape {tuple(shape)}: an axis "
+                                      f"longer than {MAX_AXIS_LENGTH:,}, which no beam has")
             if nbytes > info.file_size:
                 raise BeamFormatError(
                     f"{path}: array '{info.filename[:-4]}' declares shape {tuple(shape)} ({nbytes:,} bytes) but the "
