@@ -281,6 +281,9 @@ def _json_default(obj: Any) -> Any:
 
 
 MAX_AXIS_LENGTH = 1_000_000  # frequencies, angles: far beyond any real beam (1 deg grids are 360)
+# a decompression bomb: a member this large that expands this many times (real gain arrays compress
+# 1-3x; the native beams are stored uncompressed)
+BOMB_MIN_BYTES, BOMB_RATIO = 64 * 2**20, 50
 
 
 def _check_npz_sizes(path: Path) -> None:
@@ -304,6 +307,11 @@ def _check_npz_sizes(path: Path) -> None:
             if any(d > MAX_AXIS_LENGTH for d in shape):  # also when another axis is 0 (numpy refuses those itself)
                 raise BeamFormatError(f"{path}: array '{info.filename[:-4]}' declares shape {tuple(shape)}: an axis "
                                       f"longer than {MAX_AXIS_LENGTH:,}, which no beam has")
+            if info.file_size > BOMB_MIN_BYTES and info.file_size > BOMB_RATIO * max(1, info.compress_size):
+                raise BeamFormatError(
+                    f"{path}: array '{info.filename[:-4]}' decompresses to {info.file_size:,} bytes from "
+                    f"{info.compress_size:,} ({info.file_size / max(1, info.compress_size):,.0f}x); a beam's gains "
+                    f"compress a few times at most, so this is refused unread")
             if nbytes > info.file_size:
                 raise BeamFormatError(
                     f"{path}: array '{info.filename[:-4]}' declares shape {tuple(shape)} ({nbytes:,} bytes) but the "

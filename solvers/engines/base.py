@@ -283,6 +283,12 @@ class FrequencySolver:
         self.progress = progress
         self.use_cache = use_cache
 
+    @property
+    def processes(self) -> int:
+        """Processes a solve runs at once (what memory must hold): the workers asked for,
+        capped at the machine's cores as :func:`usable_workers` caps them; 1 in-process."""
+        return max(1, min(self.workers, os.cpu_count() or 1))
+
     # --------------------------------------------------------------- engine hooks
     def engine_identity(self) -> dict[str, str]:  # pragma: no cover - abstract
         raise NotImplementedError

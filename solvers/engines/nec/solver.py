@@ -75,20 +75,20 @@ class NecSolver(FrequencySolver):
     def plan(self, design: Design) -> Plan:
         if design.plane is not None:  # a mesh far too fine is refused before it is built (that alone can take hours)
             est = estimated_segments(design.plane, self.settings.spacing)
-            need = 16 * est ** 2 // 2 * max(1, self.workers)  # even with NEC's 2-section symmetry
+            need = 16 * est ** 2 // 2 * self.processes  # even with NEC's 2-section symmetry
             have = available_memory_bytes()
             if have is not None and need > 0.8 * have:
                 raise SettingsError(
                     f"{design.label()}: a {self.settings.spacing:g} m mesh of {design.plane.metal_area:.0f} m^2 makes "
                     f"about {est} plate segments, whose NEC matrices need about {need / 2**30:.0f} GiB on "
-                    f"{max(1, self.workers)} process(es); {have / 2**30:.1f} GiB is available. Use a coarser --mesh.")
+                    f"{self.processes} process(es); {have / 2**30:.1f} GiB is available. Use a coarser --mesh.")
         try:
             model = build_model(design, self.settings)
         except (SolveError, SettingsError):
             raise
         except Exception as exc:  # shapely/geometry trouble: name the candidate
             raise SolveError(f"{design.label()}: could not mesh the model ({exc})") from exc
-        check_memory(model, max(1, self.workers), design.label())
+        check_memory(model, self.processes, design.label())
         symmetric = design.plane is None or all(design.plane.mirror_symmetry.values())
         n_phi = 91 if symmetric else 360
         ref, store = None, None

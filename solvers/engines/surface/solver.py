@@ -130,10 +130,10 @@ class SurfaceSolver(FrequencySolver):
         n_phi = 91 if symmetric else 360
         symmetry = MirrorSymmetry.of(mesh, rwg) if symmetric else None  # as each worker will find it
         if self.settings.method == "dense":
-            check_memory(rwg.n, len(mesh.tris), max(1, self.workers), design.label(), symmetry is not None)
+            check_memory(rwg.n, len(mesh.tris), self.processes, design.label(), symmetry is not None)
         else:
             check_fast_memory(Problem(mesh, rwg, design.ground_kind, self.settings.near_factor, _soil(design)),
-                              symmetry, max(1, self.workers), design.label())
+                              symmetry, self.processes, design.label())
         what = design.plane.describe() if design.plane else "blade"
         where = {"pec": "over PEC", "soil": "over soil", "free": "in free space"}[design.ground_kind]
         label = f"{what} {where} ({rwg.n} unknowns)"

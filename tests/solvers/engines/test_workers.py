@@ -147,3 +147,18 @@ def test_stray_temp_files_of_a_killed_write_are_cleaned_under_the_lock(tmp_path)
     with cache.lock(key):
         assert not stray_beam.exists() and not stray_part.exists()
     assert other.exists()
+
+
+def test_memory_is_checked_for_the_processes_that_will_run_not_the_workers_asked(monkeypatch):
+    """--workers 50 on 2 cores starts 2 processes: the memory estimate counts 2, not 50."""
+    from groundplane.errors import SettingsError
+    from solvers.engines.surface import SurfaceSettings, SurfaceSolver
+    from solvers.engines.surface import solver as surface_solver
+
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    solver = SurfaceSolver(SurfaceSettings(spacing=2.0), workers=50)
+    assert solver.processes == 2
+    assert SurfaceSolver(workers=0).processes == 1
+    monkeypatch.setattr(surface_solver, "available_memory_bytes", lambda: 1)
+    with pytest.raises(SettingsError, match=r"on 2 process\(es\)"):
+        solver.plan(Design(Square(10.0), Soil()))

@@ -43,3 +43,34 @@ def test_npz_declaring_a_huge_array_is_refused_without_allocating(tmp_path):
         zf.writestr("gain.npy", buf.getvalue() + b"\0" * 64)
     with pytest.raises(BeamFormatError, match=r"huge\.npz: array 'gain' declares shape \(1000000000,\)"):
         Beam.load(p)
+
+
+def test_npz_decompression_bomb_is_refused_from_the_zip_directory(tmp_path):
+    """A consistent header over 256 MB of zeros compressed to ~250 kB: refused before numpy
+    allocates or inflates anything."""
+    import io
+    import time
+    import zipfile
+
+    from groundplane.beam import Beam, BeamFormatError
+
+    n = 3 * 91 * 120_000  # 256 MB of float64 gain
+    p = tmp_path / "bomb.npz"
+    with zipfile.ZipFile(p, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        for name, arr in (("freqs_mhz", np.arange(3.0)), ("theta_deg", np.arange(91.0)),
+                          ("phi_deg", np.arange(120_000.0))):
+            buf = io.BytesIO()
+            np.save(buf, arr)
+            zf.writestr(name + ".npy", buf.getvalue())
+        from numpy.lib import format as npy
+
+        with zf.open("gain.npy", "w", force_zip64=True) as fh:
+            npy.write_array_header_1_0(fh, {"descr": "<f8", "fortran_order": False, "shape": (3, 91, 120_000)})
+            zero = bytes(2**20)
+            for _ in range(n * 8 // len(zero)):
+                fh.write(zero)
+    assert p.stat().st_size < 2 * 2**20
+    t0 = time.perf_counter()
+    with pytest.raises(BeamFormatError, match=r"bomb\.npz: array 'gain' decompresses to [\d,]+ bytes from [\d,]+ \([\d,]+x\)"):
+        Beam.load(p)
+    assert time.perf_counter() - t0 < 5
