@@ -2,11 +2,10 @@
 (plates, panels) with Rao-Wilton-Glisson (RWG) basis functions, Galerkin testing, in free
 space or over infinite perfect ground (image theory), a delta-gap feed, and the far field.
 
-Written here rather than taken from ``bempp-cl`` (0.4.2, which agrees with this code to
-2e-4 in gain on the blade): bempp's numba kernels took 267 s to assemble a small problem
-cold on this 2-core machine, more than a whole frequency of the problems we solve, and it
-offers no half-space (image) kernel. Everything below is numpy/scipy, vectorised over
-triangle pairs:
+Written here rather than taken from ``bempp-cl``: bempp offers no half-space kernel (PEC
+image or Sommerfeld), which every solve over ground needs (how the two compared on the blade
+in free space: docs/surface-engine.md). Everything below is numpy/scipy, vectorised over
+triangle pairs (the fast solve's two innermost loops are compiled: ``_compiled.py``):
 
 * Matrix: Z = jw mu/(4 pi) <f_m, A f_n> - j/(4 pi w eps) <div f_m, Phi div f_n> with the
   kernel G = exp(-jkR)/R (minus its image over PEC). Per triangle pair the integrals reduce

@@ -28,11 +28,10 @@ FAR_FIELD_STEP = 3  # deg; interpolated bicubically to 1 deg (as NEC's far field
 
 
 def check_memory(n_unknowns: int, n_triangles: int, processes: int, label: str, reduced: bool = False) -> None:
-    """Refuse, before any work, a mesh whose matrices do not fit in memory: Z is N x N and
-    the assembly keeps three T x N products (complex doubles). A ``reduced`` (mirror-
-    symmetric) solve fills a quarter of the rows; half the full figure bounds it (measured
-    peak resident memory per process: 4.5 GiB at 13644 unknowns, against 11.2 GiB for the
-    full model and 5.6 GiB for half of it: ``sawtooth-20-16`` at 0.5 m over soil)."""
+    """Refuse, before any work, a dense solve whose matrices do not fit in memory: Z is N x N
+    and the assembly keeps three T x N products (complex doubles). A ``reduced`` (mirror-
+    symmetric) solve fills a quarter of the rows; half the full figure bounds it (the measured
+    peaks behind that bound: docs/surface-engine.md)."""
     need = 16 * (n_unknowns ** 2 * 2 + 3 * n_triangles * n_unknowns) * processes // (2 if reduced else 1)
     have = available_memory_bytes()
     if have is not None and need > 0.8 * have:
