@@ -305,7 +305,11 @@ def _snap_report(plane, snapped, moved: dict, settings: "EvalSettings", out: Pat
 def _setup_study(p: argparse.ArgumentParser):
     from .studies import STUDIES
 
-    p.add_argument("name", choices=sorted(STUDIES), help="; ".join(f"{k}: {s.help}" for k, s in sorted(STUDIES.items())))
+    p.add_argument("name", nargs="?", choices=sorted(STUDIES),
+                   help="; ".join(f"{k}: {s.help}" for k, s in sorted(STUDIES.items())))
+    p.add_argument("--check", action="store_true",
+                   help="list the reports under -o (default ./results) that an engine's model change has made stale, "
+                        "with the command that regenerates each")
     p.add_argument("-o", "--out", default=None, help="output folder (default: ./<study name> in the working directory)")
     p.add_argument("--compare-mesh", type=float, metavar="SPACING",
                    help="design-study: also solve at this plate spacing and report how rows and conclusions move")
@@ -323,6 +327,10 @@ def _run_study_cmd(args: argparse.Namespace) -> int:
 
     from .studies import STUDIES, run_study
 
+    if args.check:
+        return _check_results(Path(args.out or "results"))
+    if args.name is None:
+        raise CLIError("name a study (or --check the committed results)")
     s = STUDIES[args.name]
     extra = {}
     if args.compare_mesh is not None:
@@ -363,6 +371,23 @@ def _run_study_cmd(args: argparse.Namespace) -> int:
     run_study(args.name, out, settings, invocation(), **extra)
     print(f"{args.name}: results in {out}")
     return 0
+
+
+def _check_results(root: Path) -> int:
+    """``study --check``: each report's status, stale ones first; exit 1 when any is stale."""
+    from .provenance import check
+
+    if not root.is_dir():
+        raise CLIError(f"{root}: no such folder of results")
+    rows = check(root)
+    order = {"stale": 0, "unknown": 1, "current": 2}
+    for r in sorted(rows, key=lambda r: (order[r["status"]], r["path"])):
+        again = f"  (regenerate: {r['command']})" if r["command"] and r["status"] != "current" else ""
+        print(f"{r['status']:8s} {r['path']}: {r['why']}{again}")
+    counts = {k: sum(r["status"] == k for r in rows) for k in order}
+    print(f"{len(rows)} reports: {counts['current']} current, {counts['stale']} stale, {counts['unknown']} without "
+          "model versions")
+    return 1 if counts["stale"] else 0
 
 
 def _engines():

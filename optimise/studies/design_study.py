@@ -242,8 +242,8 @@ def _design_md(table: list[dict], settings: EvalSettings, command: str,
     if any(t.get("smoothed_fom_mk") is not None for t in table):
         lines += ["", f"Same conclusions on the FoM with G(nu) smoothed (degree-{SMOOTHING_DEGREE} Chebyshev fit "
                       f"per direction, "
-                      f"removing narrow-band structure such as the wire-grid model's; "
-                      f"`results/spectral_artefacts.md`), at {sp}:", ""]
+                      f"removing narrow-band structure such as the wire-grid model's: "
+                      f"`groundplane study spectral-artefacts`), at {sp}:", ""]
         lines += conclusions(table, "smoothed_fom_mk")
         if other and any(t.get("smoothed_fom_mk") is not None for t in other):
             lines += ["", f"and at {osp}:", ""] + conclusions(other, "smoothed_fom_mk")
