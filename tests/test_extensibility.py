@@ -134,6 +134,11 @@ def test_stand_in_solver_runs_the_design_study(stand_in_engine, tmp_path):
     settings = EvalSettings(**{**settings.__dict__, "fom": settings.fom.__class__(n_lst=24)})
     run_study("design-study", tmp_path, settings)
     md = (tmp_path / "design_study.md").read_text()
-    assert "(i) larger area, lower FoM within a shape" in md
+    import csv
+
+    from optimise.studies.design_study import conclusions
+
+    table = [{**r, "our_fom_mk": float(r["our_fom_mk"])} for r in csv.DictReader(open(tmp_path / "design_study.csv"))]
+    assert len(table) == 9 and all(line in md for line in conclusions(table))  # the verdicts of these rows
     assert "blade dipole over infinite PEC ground" in stand_in_engine.solved  # the PEC reference row
     assert len([s for s in stand_in_engine.solved if "soil" in s]) == 9

@@ -20,7 +20,10 @@ def test_cross_engine_study_writes_its_table_reading_and_figure(tmp_path, monkey
     blade_nec = next(r for r in rows if r["role"] == "blade-nec")
     assert abs(float(blade_nec["fom_vs_ref"].rstrip("%"))) < 15  # coarse models of the same blade
     md = (tmp_path / "cross_engine.md").read_text()
-    assert "## Reading" in md and (tmp_path / "cross_engine.png").stat().st_size > 1000
+    table = [ln for ln in md.splitlines() if ln.startswith("| ") and not ln.startswith("| case")]
+    assert len(table) == len(rows)  # one table row per solved row, each with its own FoM
+    assert all(f"| {r['fom_mk']:.1f} |" in ln for r, ln in zip(rows, table))
+    assert (tmp_path / "cross_engine.png").stat().st_size > 1000
     assert all(np.isfinite(r["rms_db_vs_ref_max"]) for r in rows if not r["reference"] and r["rms_db_vs_ref_max"] != "-")
 
 

@@ -23,8 +23,13 @@ def test_soil_surface_study_writes_its_table_reading_and_figure(tmp_path, monkey
         assert 0 < float(r["fom_mk"]) < 1e4 and 0.5 < float(r["efficiency_75"]) < 1.0
         assert 0 < float(r["fom_binned_mk"]) <= float(r["fom_mk"]) + 1e-9  # bin averages never add structure
     md = (tmp_path / "soil_surface.md").read_text()
-    assert "## Reading" in md and "Plate height" in md and (tmp_path / "soil_surface.png").stat().st_size > 1000
-    assert "design study on the sheet model" in md and "(i) on square-10 -> square-20" in md
+    assert (tmp_path / "soil_surface.png").stat().st_size > 1000
+    for r in rows:  # each row's numbers are in the table, as measured
+        assert f"| {float(r['fom_mk']):.1f} |" in md and f"| {float(r['fom_binned_mk']):.1f} |" in md
+    sq10, sq20 = (float(next(r["fom_mk"] for r in rows if r["preset"] == p and r["role"] == "design"))
+                  for p in ("square-10", "square-20"))
+    line = next(ln for ln in md.splitlines() if f"(i) on square-10 -> square-20: {sq10:.1f} -> {sq20:.1f} mK" in ln)
+    assert line.endswith(f"**{'holds' if sq20 < sq10 else 'does not hold'}**.")  # the verdict of these numbers
     assert "**Check, square-20, sheet 1 cm up**" in md
     assert "**in 2 h LST bins**" in md and "in 2 h LST bins" in md.split("**Check")[1]  # one change from its design row, measured against it
 
