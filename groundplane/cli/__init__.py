@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import os
 import shlex
+import signal
 import sys
 from typing import Any, Callable, Sequence
 
@@ -81,8 +82,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(argv)
     args = parser.parse_args(argv)
+    previous = _terminate_as_interrupt()
     try:
         return int(args.run(args) or 0)
+    except Terminated:
+        print(f"groundplane {args.command}: terminated (what was finished is kept)", file=sys.stderr)
+        return 143
     except UserInputError as exc:
         print(f"groundplane {args.command}: error: {exc}", file=sys.stderr)
         return 2
@@ -95,6 +100,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # the reader went away (`groundplane fom b.npz | head -1`): not an error
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # Python's own recipe: no flush error at exit
         return 0
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the program is, so that worker pools and files are closed as on
+    Ctrl-C (Python's default for SIGTERM kills at once, leaving the pool's semaphores behind)."""
+
+
+def _terminate_as_interrupt():
+    """Turn SIGTERM into :class:`Terminated` for this command (main thread only); the old handler."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return None
+
+    def raise_terminated(signum, frame):
+        raise Terminated()
+    return signal.signal(signal.SIGTERM, raise_terminated)
 
 
 # ----------------------------------------------------------------- shape options

@@ -386,6 +386,13 @@ class FrequencySolver:
         jobs = [(plan.job, plan.payload, f) for f in todo]
         try:
             yield from (pool.map(_timed, jobs) if pool else map(_timed, jobs))
+        except (KeyboardInterrupt, GeneratorExit):
+            if pool is not None:  # interrupted: abandon the frequencies in flight rather than wait for them
+                for proc in list(getattr(pool, "_processes", {}).values()):  # no public way to stop a running job
+                    proc.terminate()
+                pool.shutdown(wait=True, cancel_futures=True)
+                pool = None
+            raise
         finally:
             if pool is not None:
                 pool.shutdown(cancel_futures=True)
