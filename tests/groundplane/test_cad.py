@@ -1,5 +1,8 @@
 """Ground-plane shapes (exact areas, validation) and CAD export (STEP/STL round trips)."""
 
+import sys
+from pathlib import Path
+
 import pytest
 
 from groundplane import cad
@@ -52,3 +55,39 @@ def test_drawings(tmp_path):
     with pytest.raises(ValueError, match="unknown output format"):
         cad.export(PRESETS["plus-30"], tmp_path / "d.dxf")
 
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="POSIX signals")
+@pytest.mark.parametrize("after_s", [0.5, 1.5, 2.5, 3.5])
+def test_kill_9_during_export_never_leaves_a_broken_file(tmp_path, after_s):
+    """The export writes beside the target and renames: killed at any moment, the target is the
+    old file or the whole new one (it was once left as 0 bytes)."""
+    import signal
+    import subprocess
+    import time
+
+    from groundplane.cad import import_step_volume
+
+    root = Path(__file__).resolve().parents[2]
+    out = tmp_path / "plane.step"
+    old = b"ISO-10303-21; an older good file\n"
+    out.write_bytes(old)
+    proc = subprocess.Popen([sys.executable, "-m", "groundplane", "export", "--preset", "sawtooth-20-16", "-o",
+                             str(out)], cwd=root, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    time.sleep(after_s)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    data = out.read_bytes()
+    assert data == old or import_step_volume(out) > 0  # untouched, or complete and readable
+    assert data == old or data.rstrip().endswith(b"END-ISO-10303-21;")
+
+
+def test_export_to_a_symlink_replaces_the_link_not_its_target(tmp_path):
+    from groundplane.cli import main
+
+    target = tmp_path / "elsewhere.step"
+    target.write_text("keep me")
+    link = tmp_path / "plane.step"
+    link.symlink_to(target)
+    assert main(["export", "--preset", "square-10", "-o", str(link)]) == 0
+    assert target.read_text() == "keep me" and not link.is_symlink() and link.stat().st_size > 1000
