@@ -6,8 +6,6 @@ models take their own defaults and are *compared* with these numbers.
 """
 from __future__ import annotations
 
-CITATION = "Mahesh et al. 2021, AJ 162, 38"
-
 # Table 1: the EDGES low-band blade dipole (metres, degrees). The panel side along the
 # excitation axis is 0.964 m (SPEC section 1: the beam widths decide the orientation).
 PANEL_ALONG_AXIS_M = 0.964

@@ -63,14 +63,13 @@ class NecSolver(FrequencySolver):
     name: ClassVar[str] = "nec"
     settings_class: ClassVar[type] = NecSettings
     model_version: ClassVar[int] = MODEL_VERSION
-    allow_unverified_engine: bool = False
 
     def engine_identity(self) -> dict[str, str]:
         return engine.engine_info()
 
     def check(self, design: Design) -> None:
         ground = design.ground_kind
-        engine.check_engine(ground, allow_unverified=self.allow_unverified_engine, in_process=self.workers == 0)
+        engine.check_engine(ground, in_process=self.workers == 0)
 
     def plan(self, design: Design) -> Plan:
         if design.plane is not None:  # a mesh far too fine is refused before it is built (that alone can take hours)

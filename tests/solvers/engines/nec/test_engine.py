@@ -23,9 +23,7 @@ def test_engine_is_the_verified_one():
 def test_golden_dipole_over_soil(height, fortran):
     assert engine.engine_call(engine.golden_dipole_zenith_gain, height) == pytest.approx(fortran, abs=0.05)
 
-def test_wrong_engine_and_gx_refused(monkeypatch):
-    with pytest.raises(EngineError, match="GX"):
-        check_engine("soil", use_gx=True)
+def test_wrong_engine_refused(monkeypatch):
     monkeypatch.setattr(engine, "engine_info", lambda: {"engine": "pynec", "version": "2.3.4"})
     with pytest.raises(EngineError, match="not verified"):
         check_engine("soil")
