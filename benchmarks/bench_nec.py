@@ -30,10 +30,10 @@ from groundplane.shapes import PRESETS
 
 def breakdown_child(name: str, spacing: float, fast: bool) -> dict:
     """One frequency in this process (no healpy here, so PyNEC may load)."""
-    from solvers.engines.base import to_one_degree
     from solvers.engines.nec import NecSettings, build_model
     from solvers.engines.nec.engine import calibration_factor, context
     from solvers.engines.nec.mesh import pec_reference_model
+    from solvers.engines.patterns import to_one_degree
 
     settings = NecSettings(spacing=spacing, rotational_symmetry=fast, far_field_step=3 if fast else 1)
     design = Design(PRESETS[name], Soil())

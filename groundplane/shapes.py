@@ -518,6 +518,10 @@ class PolygonPlane(GroundPlane, kind="polygon"):
     def _vertices(self) -> np.ndarray:
         return np.asarray(self.vertices)
 
+    def describe(self) -> str:
+        """Short: an as-built outline has dozens of vertices (``to_dict`` holds them all)."""
+        return f"PolygonPlane({len(self.vertices)} vertices, {self.metal_area:.2f} m^2, key {self.key().split('-', 1)[1][:8]})"
+
 
 # The design-study rows of the paper (Table 3) and the deployed "extended" plane.
 PRESETS: dict[str, GroundPlane] = {

@@ -154,8 +154,8 @@ def _wall(model: NecModel, a, b, height: float) -> None:
 def _calibrated_band(model, freqs) -> np.ndarray:
     """Engine process: a blade-over-PEC model's calibrated gain [f, 91, 360], frequency by
     frequency exactly as NecSolver does it (the model is its own calibration reference)."""
-    from solvers.engines.base import mirror_quadrant
     from solvers.engines.nec.engine import solve_frequency
+    from solvers.engines.patterns import mirror_quadrant
 
     step = NecSettings().far_field_step
     return mirror_quadrant(np.stack([solve_frequency((model, model, 91, step, None), float(f))[0] for f in freqs]))

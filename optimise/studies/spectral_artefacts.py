@@ -24,8 +24,8 @@ FINE_FREQS = np.arange(70.0, 76.01, 0.25)
 
 def _fine_sweep(model, freqs) -> tuple[np.ndarray, np.ndarray]:
     """Engine process: zenith gain (dBi) and raw upper-hemisphere mean gain / 2 per frequency."""
-    from solvers.engines.base import upper_mean_gain
     from solvers.engines.nec.engine import radiation_pattern
+    from solvers.engines.patterns import upper_mean_gain
 
     zen, eff = [], []
     for f in freqs:

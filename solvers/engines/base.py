@@ -8,11 +8,9 @@ import json
 import os
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import nullcontext
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Callable, ClassVar, Iterable, Protocol, runtime_checkable
 
 import numpy as np
@@ -21,6 +19,9 @@ from groundplane.beam import Beam
 from groundplane.design import Design
 from groundplane.errors import SettingsError, SolveError, SolverError
 from groundplane.options import option, parse_freqs
+
+from .patterns import mirror_quadrant
+from .workers import process_pool, usable_workers
 
 DEFAULT_FREQS_MHZ = tuple(float(f) for f in np.arange(40.0, 101.0))  # SPEC: 40-100 MHz, 1 MHz steps
 
@@ -127,118 +128,6 @@ def make_solver(engine: str, settings: Any = None, **runtime: Any) -> Solver:
         raise SettingsError(f"unknown engine '{engine}'; choose one of {', '.join(ENGINES)}")
     cls = ENGINES[engine]
     return cls(settings if settings is not None else cls.settings_class(), **runtime)
-
-
-def available_memory_bytes() -> int | None:
-    """MemAvailable from /proc/meminfo (Linux), else None (no check)."""
-    try:
-        for line in Path("/proc/meminfo").read_text().splitlines():
-            if line.startswith("MemAvailable:"):
-                return int(line.split()[1]) * 1024
-    except OSError:
-        return None
-    return None
-
-
-def worker_init(parent_pid: int | None = None) -> None:
-    """One BLAS/OpenMP thread per worker (frequencies run in parallel processes instead),
-    and a worker that dies with its parent: a ``kill -9`` of a sweep must not leave NEC
-    workers running for hours with nobody to read their results."""
-    os.environ["OMP_NUM_THREADS"] = "1"
-    os.environ["OPENBLAS_NUM_THREADS"] = "1"
-    # numpy's BLAS is already loaded here (unpickling this function imported it) with a thread
-    # per core: without this, two workers run four BLAS threads on two cores (measured: a fast
-    # surface solve 2-2.5x slower per frequency with 2 workers than alone)
-    from threadpoolctl import threadpool_limits
-
-    threadpool_limits(limits=1)
-    if parent_pid is not None:
-        _die_with_parent(parent_pid)
-
-
-def _die_with_parent(parent_pid: int) -> None:
-    import signal
-    import threading
-
-    if sys.platform.startswith("linux"):  # the kernel kills us when the parent goes (no library does this)
-        import ctypes
-
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-    if os.getppid() != parent_pid:  # the parent died before we got here
-        os._exit(1)
-
-    def watch() -> None:  # elsewhere (and as a backstop): poll for re-parenting
-        while os.getppid() == parent_pid:
-            time.sleep(1.0)
-        os._exit(1)
-
-    threading.Thread(target=watch, daemon=True, name="die-with-parent").start()
-
-
-def usable_workers(workers: int, jobs: int) -> int:
-    """Worker processes worth starting: no more than the jobs or the machine's cores (each
-    worker runs one BLAS thread); says so on stderr when it caps what was asked."""
-    cores = os.cpu_count() or 1
-    n = max(1, min(workers, jobs, cores))
-    if workers > cores:
-        print(f"--workers {workers}: this machine has {cores} cores; starting {n} worker process(es)", file=sys.stderr)
-    return n
-
-
-def process_pool(workers: int) -> ProcessPoolExecutor:
-    """Spawned worker processes (engines bundle their own OpenMP runtimes, which must not
-    share a process with healpy's) that die with this process."""
-    import multiprocessing as mp
-
-    return ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"), initializer=worker_init,
-                               initargs=(os.getpid(),))
-
-
-def mirror_quadrant(q: np.ndarray) -> np.ndarray:
-    """phi 0..90 of a pattern symmetric about both vertical planes -> phi 0..359."""
-    full = np.empty(q.shape[:-1] + (360,))
-    full[..., 0:91] = q
-    full[..., 91:181] = q[..., 89::-1][..., :90]  # phi 91..180 = 180 - phi in 89..0
-    full[..., 181:271] = q[..., 1:91]  # phi 181..270 = phi - 180 in 1..90
-    full[..., 271:360] = q[..., 89:0:-1]  # phi 271..359 = 360 - phi in 89..1
-    return full
-
-
-def upper_mean_gain(g: np.ndarray) -> float:
-    """Mean of G over the upper hemisphere of a [91, 360] or quadrant [91, 91] 1-degree pattern."""
-    full = mirror_quadrant(g) if g.shape[-1] == 91 else g
-    w = Beam([1.0], np.arange(91.0), np.arange(360.0), full[None]).solid_angle_weights()
-    return float((full * w).sum() / w.sum())
-
-
-def to_one_degree(g: np.ndarray, step: int, quadrant: bool) -> np.ndarray:
-    """A [theta, phi] gain grid every ``step`` deg -> every 1 deg, by a bicubic
-    interpolating spline (scipy) on the grid padded with its own symmetries, so the
-    ends (zenith, phi = 0/90 or the phi wrap) are interior points of the spline.
-
-    ``quadrant``: phi 0..90 of a pattern symmetric about both vertical planes; else phi
-    0..360-step. Either way G(-theta, phi) = G(theta, phi + 180)."""
-    from scipy.interpolate import RectBivariateSpline
-
-    pad = 3
-    th = np.arange(g.shape[0]) * step
-    ph = np.arange(g.shape[1]) * step
-    if quadrant:  # G(theta, -phi) = G(theta, phi), G(theta, 90 + phi) = G(theta, 90 - phi), G(-theta) = G(theta)
-        gp = np.concatenate([g[:, pad:0:-1], g, g[:, -2:-2 - pad:-1]], axis=1)
-        gp = np.concatenate([gp[pad:0:-1], gp], axis=0)
-        out_phi = np.arange(91.0)
-    else:  # periodic in phi; G(-theta, phi) = G(theta, phi + 180)
-        def wrap(a: np.ndarray) -> np.ndarray:
-            return np.concatenate([a[:, -pad:], a, a[:, :pad]], axis=1)
-
-        gp = wrap(g)
-        gp = np.concatenate([wrap(np.roll(g, -(g.shape[1] // 2), axis=1))[pad:0:-1], gp], axis=0)
-        out_phi = np.arange(360.0)
-    th_p = np.concatenate([-th[pad:0:-1], th])
-    ph_p = np.concatenate([-ph[pad:0:-1] if quadrant else ph[-pad:] - 360.0, ph,
-                           (2 * ph[-1] - ph[-2:-2 - pad:-1]) if quadrant else ph[:pad] + 360.0])
-    spline = RectBivariateSpline(th_p, ph_p, gp, kx=3, ky=3, s=0)
-    return np.clip(spline(np.arange(91.0), out_phi), 0.0, None)
 
 
 @dataclass(frozen=True)

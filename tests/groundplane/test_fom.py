@@ -250,7 +250,7 @@ def test_a_typo_d_frequency_step_is_refused_before_any_solve():
 def test_workers_are_capped_at_the_cores_and_say_so(capsys):
     import os
 
-    from solvers.engines.base import usable_workers
+    from solvers.engines.workers import usable_workers
 
     cores = os.cpu_count() or 1
     assert usable_workers(50, 100) == cores and "--workers 50" in capsys.readouterr().err

@@ -20,7 +20,8 @@ import numpy as np
 from groundplane.errors import EngineError, SolveError
 from groundplane.files import atomic_path
 
-from ..base import process_pool, to_one_degree, upper_mean_gain
+from ..patterns import to_one_degree, upper_mean_gain
+from ..workers import process_pool
 from .mesh import NecModel
 
 C_MHZ_M = 299.792458

@@ -30,7 +30,8 @@ from groundplane.design import Design, InfinitePEC
 from groundplane.errors import SettingsError, SolveError
 from groundplane.sky import cache_dir
 
-from ..base import FrequencySolver, Plan, available_memory_bytes, register_engine
+from ..base import FrequencySolver, Plan, register_engine
+from ..workers import available_memory_bytes
 from . import engine
 from .mesh import NecModel, NecSettings, build_model, estimated_segments, pec_reference_model
 

@@ -15,7 +15,9 @@ import numpy as np
 from groundplane.design import Design, Soil
 from groundplane.errors import SettingsError, SolveError
 
-from ..base import FrequencySolver, Plan, available_memory_bytes, register_engine, to_one_degree, upper_mean_gain
+from ..base import FrequencySolver, Plan, register_engine
+from ..patterns import to_one_degree, upper_mean_gain
+from ..workers import available_memory_bytes
 from .mesh import SurfaceSettings, build_mesh
 from .rwg import MirrorSymmetry, Problem, TriMesh, gain_pattern, rwg_basis, solve
 

@@ -33,7 +33,7 @@ def test_workers_die_when_the_parent_is_killed(tmp_path):
     script = textwrap.dedent(f"""
         import os, sys, time
         sys.path.insert(0, {str(ROOT)!r})
-        from solvers.engines.base import process_pool
+        from solvers.engines.workers import process_pool
         from tests.solvers.engines.test_workers import sleeper
         pool = process_pool(2)
         futs = [pool.submit(sleeper, {str(tmp_path)!r}) for _ in range(2)]

@@ -6,13 +6,13 @@ import pytest
 from groundplane.design import Design, Soil
 from groundplane.errors import EngineError
 from groundplane.shapes import Square
-from solvers.engines.base import mirror_quadrant
 from solvers.engines.nec import (
     NecSettings,
     build_model,
     engine,
 )
 from solvers.engines.nec.engine import check_engine
+from solvers.engines.patterns import mirror_quadrant
 
 
 def test_engine_is_the_verified_one():

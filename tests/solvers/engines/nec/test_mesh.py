@@ -104,7 +104,7 @@ def test_rotational_fold_halves_the_model_and_drives_the_split_feed_both_ways():
 def test_far_field_interpolation_to_one_degree():
     """NEC's far field on a 3-degree grid, splined to 1 degree: a smooth dipole-like
     pattern comes back to 1e-5, on the quadrant and on the full circle."""
-    from solvers.engines.base import to_one_degree
+    from solvers.engines.patterns import to_one_degree
 
     t, p = np.meshgrid(np.radians(np.arange(91.0)), np.radians(np.arange(360.0)), indexing="ij")
     g = (1 - np.sin(t) ** 2 * np.cos(p) ** 2) * np.cos(t) ** 2 * (1 + 0.2 * np.sin(t) ** 2 * np.cos(2 * p))

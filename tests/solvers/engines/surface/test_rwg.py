@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from groundplane.design import Design, InfinitePEC
-from solvers.engines.base import upper_mean_gain
+from solvers.engines.patterns import upper_mean_gain
 from solvers.engines.surface.mesh import SurfaceSettings, build_mesh, strip_dipole_mesh
 from solvers.engines.surface.rwg import Problem, gain_pattern, potential_integrals, rwg_basis, solve
 
