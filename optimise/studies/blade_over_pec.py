@@ -9,7 +9,6 @@ move the FoM, not what the real ones do.
 """
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -21,7 +20,6 @@ from groundplane.design import Design, InfinitePEC
 from groundplane.fom import gain_polynomial_residuals
 from groundplane.progress import Progress
 from solvers.engines import make_solver
-from solvers.engines.cache import BeamCache
 from solvers.engines.nec import NecSettings
 from solvers.engines.nec.mesh import NecModel, fold_rotation, pec_reference_model
 from solvers.engines.surface import SurfaceSettings
@@ -151,30 +149,11 @@ def _wall(model: NecModel, a, b, height: float) -> None:
             model.add((p[0], p[1], z), (q[0], q[1], z), PART_WIRE_RADIUS)
 
 
-def _calibrated_band(model, freqs) -> np.ndarray:
-    """Engine process: a blade-over-PEC model's calibrated gain [f, 91, 360], frequency by
-    frequency exactly as NecSolver does it (the model is its own calibration reference)."""
-    from solvers.engines.nec.engine import solve_frequency
-    from solvers.engines.patterns import mirror_quadrant
-
-    step = NecSettings().far_field_step
-    return mirror_quadrant(np.stack([solve_frequency((model, model, 91, step, None), float(f))[0] for f in freqs]))
-
-
 def parts_beam(model: NecModel, freqs: np.ndarray = FREQS) -> Beam:
-    """The calibrated beam of a blade-over-PEC model with parts, cached on its NEC deck."""
-    from solvers.engines.nec.engine import engine_call, engine_info
-    from solvers.engines.nec.solver import MODEL_VERSION
+    """The calibrated beam of a blade-over-PEC model with parts (through the engine, cached)."""
+    from solvers.engines.nec import NecSolver
 
-    ident = f"{MODEL_VERSION}|{engine_info()}|{model.to_deck(list(map(float, freqs)))}"
-    key = "parts_" + hashlib.sha256(ident.encode()).hexdigest()[:24]
-    cache = BeamCache()
-    beam = cache.get(key)
-    if beam is None:
-        gain = engine_call(_calibrated_band, model, freqs)
-        beam = Beam(freqs, np.arange(91.0), np.arange(360.0), gain, {"n_segments": model.n_segments})
-        cache.put(key, beam)
-    return beam
+    return NecSolver(NecSettings()).solve_model(model, freqs)
 
 
 def blade_over_pec(out: Path, command: str) -> None:

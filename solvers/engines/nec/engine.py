@@ -13,6 +13,7 @@ static TLS block").
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -146,21 +147,35 @@ def calibration_factor(ref_model: NecModel, freq: float, step: int, store: str |
     return kappa
 
 
-def solve_frequency(payload: tuple, freq: float) -> tuple[np.ndarray, dict[str, float]]:
-    """Worker job: the calibrated pattern at one frequency and its calibration factor.
+@dataclass(frozen=True)
+class NecJob:
+    """What a worker needs to solve one design at any frequency. ``calibration``: ``"self"``
+    when the design *is* the blade over PEC (its own mean gain calibrates it), ``"reference"``
+    to divide by the blade-over-PEC ``reference`` model's (kept in ``store``), ``"none"``."""
 
-    ``payload`` is ``(model, ref_model, n_phi, step, store)``: ``ref_model`` is the blade
-    over PEC for the gain calibration, ``model`` itself when the design *is* the blade
-    over PEC (solved once), or None for no calibration; ``store`` keeps calibration factors."""
-    model, ref_model, n_phi, step, store = payload
-    g = radiation_pattern(model, freq, n_phi, step)
+    model: NecModel
+    n_phi: int
+    step: int
+    calibration: str = "none"
+    reference: NecModel | None = None
+    store: str | None = None
+
+
+def solve_frequency(job: NecJob, freq: float) -> tuple[np.ndarray, dict[str, float]]:
+    """Worker job: the calibrated pattern at one frequency and its calibration factor."""
+    g = radiation_pattern(job.model, freq, job.n_phi, job.step)
     kappa = 1.0
-    if ref_model is not None:
-        if ref_model is model:
+    if job.calibration != "none":
+        if job.calibration == "self":
             kappa = upper_mean_gain(g) / 2.0
         else:
-            kappa = calibration_factor(ref_model, freq, step, store)
+            kappa = calibration_factor(job.reference, freq, job.step, job.store)
         if not (0.3 < kappa < 3.0):
             raise SolveError(f"gain calibration factor {kappa:.3f} at {freq} MHz is implausible")
         g = g / kappa
     return g, {"gain_calibration_kappa": kappa}
+
+
+def solve_band(job: NecJob, freqs) -> np.ndarray:
+    """Engine process: the job's gain [f, 91, n_phi] at each frequency, one after another."""
+    return np.stack([solve_frequency(job, float(f))[0] for f in freqs])

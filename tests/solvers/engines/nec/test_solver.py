@@ -133,3 +133,24 @@ def test_a_mesh_too_fine_to_fit_is_refused_before_it_is_built():
     with pytest.raises(SettingsError, match="about 2000000 plate segments"):
         NecSolver(NecSettings(spacing=0.01, plate_wire_radius=0.001)).plan(Design(preset("square-10"), Soil()))
     assert time.perf_counter() - t0 < 5.0  # refused from the outline, not after meshing (that took minutes)
+
+
+def test_a_hand_built_model_is_solved_through_the_engine_and_cached(tmp_path, monkeypatch):
+    """A study's blade with extra parts reaches NEC through NecSolver.solve_model, calibrated on
+    itself as the bare blade over PEC is (mean gain 2) and cached: a second call solves nothing."""
+    import numpy as np
+
+    from groundplane.design import Design, InfinitePEC
+    from solvers.engines.nec import NecSettings, NecSolver
+    from solvers.engines.nec import engine as nec_engine
+    from solvers.engines.nec.mesh import pec_reference_model
+    from solvers.engines.patterns import upper_mean_gain
+
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path))
+    model = pec_reference_model(Design(None, InfinitePEC()), NecSettings(blade_cells=(4, 4)))
+    beam = NecSolver(NecSettings()).solve_model(model, [60.0, 80.0])
+    assert beam.shape == (2, 91, 360)
+    assert all(abs(upper_mean_gain(g) - 2.0) < 1e-6 for g in beam.gain)
+    monkeypatch.setattr(nec_engine, "engine_call", lambda *a: (_ for _ in ()).throw(AssertionError("solved again")))
+    again = NecSolver(NecSettings()).solve_model(model, [60.0, 80.0])
+    assert np.array_equal(again.gain, beam.gain)
