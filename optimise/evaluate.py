@@ -32,7 +32,7 @@ RESIDUAL_LSTS_H = (2.0, 6.0, 12.0, 18.0)
 
 @dataclass(frozen=True)
 class Candidate:
-    """A named ground plane (solved with NEC-2) or a beam file (loaded)."""
+    """A named ground plane (solved by the settings' engine) or a beam file (loaded)."""
 
     name: str
     plane: GroundPlane | None = None
@@ -150,7 +150,7 @@ def smoothed_fom_mk(beam: Beam, settings: EvalSettings) -> float | None:
 
 
 def solver_cpu_s(beam: Beam) -> float | None:
-    """NEC time summed over frequencies, from the beam's own timings (None for exports)."""
+    """Solver time summed over frequencies, from the beam's own timings (None for exports)."""
     secs = beam.meta.get("seconds_per_frequency")
     return None if secs is None else round(float(np.sum(secs)), 2)
 

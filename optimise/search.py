@@ -24,7 +24,6 @@ import numpy as np
 from groundplane.errors import ShapeError, UserInputError
 from groundplane.files import append_jsonl, atomic_path, read_jsonl
 from groundplane.shapes import SHAPES, GroundPlane
-from solvers.engines import ENGINES
 
 from .evaluate import Candidate, EvalSettings, evaluate
 
@@ -174,11 +173,10 @@ def thin_fraction(plane: GroundPlane, spacing: float) -> float:
     return float(1.0 - kept.area / outline.area)
 
 
-def too_fine_for(plane: GroundPlane, spacing: float, keeps_outline: bool = False) -> str | None:
-    """Why a mesh at ``spacing`` cannot represent ``plane`` (None if it can): metal narrower
-    than two cells has at most one grid line (or triangle) across it; on a wire grid
-    (``keeps_outline`` False) an outline edge under half a cell is also at the node-merging
-    tolerance (0.3 cells), where the mesh moves it. A conforming triangulation keeps it."""
+def too_fine_for(plane: GroundPlane, spacing: float) -> str | None:
+    """Why a mesh at ``spacing`` cannot represent ``plane`` on any engine (None if it can):
+    metal narrower than two cells has at most one grid line (or triangle) across it. An
+    engine's own limits (a wire grid moving short outline edges) are its ``why_unresolved``."""
     edge, span = smallest_feature(plane)
     if span < 2 * spacing:
         return f"a {span:.2f} m wide feature is under two mesh cells ({2 * spacing:g} m)"
@@ -186,8 +184,6 @@ def too_fine_for(plane: GroundPlane, spacing: float, keeps_outline: bool = False
     if thin > MAX_THIN_FRACTION:  # strips (long thin teeth) have no sharp vertex for the rule above
         return (f"{100 * thin:.0f} % of the metal is narrower than two mesh cells ({2 * spacing:g} m; at most "
                 f"{100 * MAX_THIN_FRACTION:.0f} %)")
-    if not keeps_outline and edge < 0.5 * spacing:
-        return f"a {edge:.2f} m outline edge is under half a mesh cell ({0.5 * spacing:g} m)"
     return None
 
 
@@ -437,6 +433,13 @@ class _Evaluator:
     solves: int = 0
     _replayed: set = field(default_factory=set)
 
+    @property
+    def solver(self):
+        """The engine that solves this search's designs (asked what its mesh cannot represent)."""
+        if "_solver" not in self.__dict__:
+            self.__dict__["_solver"] = self.settings.make_solver()
+        return self.__dict__["_solver"]
+
     def penalty(self) -> float:
         finite = [r["fom_mk"] for r in self.hist.rows if r["status"] == "ok"]
         return max([self.penalty_floor] + [10 * f for f in finite])
@@ -483,10 +486,9 @@ class _Evaluator:
         except ShapeError as exc:
             return str(exc)
         spacing = self.settings.spacing
-        keeps = getattr(ENGINES[self.settings.engine], "mesh_keeps_outline", False)
-        if spacing and (why := too_fine_for(plane, spacing, keeps)):  # the search would exploit the model
+        if spacing and (why := too_fine_for(plane, spacing)):  # the search would exploit the model
             return why
-        return None
+        return self.solver.why_unresolved(plane)
 
     def _score(self, x: np.ndarray, n: int | None, plane: GroundPlane | None, name: str | None) -> dict[str, Any]:
         plane = plane or self.fam.build(x, n)

@@ -63,7 +63,7 @@ def _setup_solve(p: argparse.ArgumentParser):
                         "common cases)")
     add_solve_options(p)
     p.add_argument("--no-cache", action="store_true", help="neither read nor write the beam cache")
-    p.add_argument("--deck", metavar="FILE.nec", help="also write the NEC-2 input deck")
+    p.add_argument("--deck", metavar="FILE", help="also write the engine's own input deck (NEC-2: a .nec card deck)")
     p.add_argument("-o", "--output", required=True, help="beam.npz")
     return _run_solve
 
@@ -83,24 +83,19 @@ def _run_solve(args: argparse.Namespace) -> int:
         if plane is None:
             raise CLIError("a solve over soil needs a ground plane: --preset NAME or a shape (or use --ground pec)")
         design = Design(plane, soil)
-    if args.deck:
-        if solve.engine != "nec":
-            raise CLIError("--deck writes a NEC-2 deck: use it with --engine nec")
-        from .engines.nec import build_model
-
-        model = build_model(design, model_settings)
-        note = check_output(args.deck)
-        with atomic_path(args.deck, suffix=".nec.tmp") as tmp:
-            tmp.write_text(model.to_deck(solve.freqs_mhz, design.label()))
-        print(f"wrote {args.deck}{note} ({model.n_segments} segments)")
     solver = make_solver(solve.engine, model_settings, workers=solve.workers, progress=True,
                          use_cache=not args.no_cache)
+    if args.deck:
+        deck = solver.input_deck(design, solve.freqs_mhz)
+        note = check_output(args.deck)
+        with atomic_path(args.deck, suffix=".deck.tmp") as tmp:
+            tmp.write_text(deck)
+        print(f"wrote {args.deck}{note} (the {solve.engine} engine's input deck)")
     note = check_output(args.output)  # before the solve, not after it
     beam = solver.solve(design, solve.freqs_mhz)
     out = beam.save(args.output)
     secs = sum(beam.meta.get("seconds_per_frequency", []))
-    size = (f"{beam.meta['n_segments']} segments" if "n_segments" in beam.meta
-            else f"{beam.meta.get('n_unknowns', '?')} unknowns")
+    size = solver.model_size(beam.meta)
     print(f"wrote {out}{note}: {design.label()}, {size}, {len(solve.freqs_mhz)} "
           f"frequencies ({secs:.0f} s of solver time; cache key {beam.meta['cache_key']})")
     return 0

@@ -57,6 +57,10 @@ class Solver(Protocol):
 
     def solve(self, design: Design, freqs_mhz: Iterable[float] = DEFAULT_FREQS_MHZ) -> Beam: ...
 
+    def why_unresolved(self, plane: Any) -> str | None:
+        """Why the engine's model would not be ``plane`` as drawn (None when it is)."""
+        ...
+
 
 class EngineRegistry(dict):
     """Registered engines by name. Each engine sub-package registers its solver class when
@@ -161,9 +165,6 @@ class FrequencySolver:
     settings_class: ClassVar[type] = object
     model_version: ClassVar[int] = 1
     grounds: ClassVar[tuple[str, ...]] = ("soil", "pec")  # what the engine can put under a design
-    # True when the plate's mesh keeps every outline vertex (a conforming triangulation), so an
-    # outline edge shorter than a cell is meshed as it is; a wire grid moves such edges.
-    mesh_keeps_outline: ClassVar[bool] = False
 
     def __init__(self, settings: Any = None, *, workers: int = 2, progress: bool = False,
                  use_cache: bool = True) -> None:
@@ -181,6 +182,19 @@ class FrequencySolver:
     # --------------------------------------------------------------- engine hooks
     def engine_identity(self) -> dict[str, str]:  # pragma: no cover - abstract
         raise NotImplementedError
+
+    def input_deck(self, design: Design, freqs_mhz: Iterable[float]) -> str:
+        """The engine's own input file for ``design`` (for running it outside the toolkit)."""
+        raise SettingsError(f"the {self.name} engine has no input deck to write")
+
+    def model_size(self, meta: dict[str, Any]) -> str:
+        """How big the solved model was, in the engine's own unit, from a beam's meta."""
+        return f"{meta.get('n_unknowns', '?')} unknowns"
+
+    def why_unresolved(self, plane: Any) -> str | None:
+        """Why this engine's model would not be the plane as drawn (None when it is): an engine
+        whose mesh moves the outline says where. A conforming mesh keeps every edge."""
+        return None
 
     def check(self, design: Design) -> None:
         """Refuse a design or engine this solver cannot do right (before any work)."""

@@ -123,18 +123,20 @@ def test_a_short_outline_edge_is_refused_on_the_wire_grid_only():
     triangulation keeps it; a tooth under two cells wide is refused by both."""
     from groundplane.shapes import Sawtooth
     from optimise.search import smallest_feature, too_fine_for
-    from solvers.engines import ENGINES
 
     plane = Sawtooth(side=17.320508075688775, teeth_per_side=4, tooth_base=3.4641016151377553,
                      tooth_height=6.495190528383288)
     edge, span = smallest_feature(plane)
     assert edge == pytest.approx(0.433, abs=1e-3) and span == pytest.approx(3.464, abs=1e-3)
-    nec, surface = ENGINES["nec"].mesh_keeps_outline, ENGINES["surface"].mesh_keeps_outline
-    assert not nec and surface
-    assert "outline edge" in too_fine_for(plane, 1.0, nec)
-    assert too_fine_for(plane, 1.0, surface) is None
-    assert "under two mesh cells" in too_fine_for(plane, 1.8, surface)
-    assert "under two mesh cells" in too_fine_for(plane, 1.8, nec)
+    from solvers.engines import make_solver
+    from solvers.engines.nec import NecSettings
+    from solvers.engines.surface import SurfaceSettings
+
+    nec, surface = make_solver("nec", NecSettings(spacing=1.0)), make_solver("surface", SurfaceSettings(spacing=1.0))
+    assert too_fine_for(plane, 1.0) is None
+    assert "outline edge" in nec.why_unresolved(plane)
+    assert surface.why_unresolved(plane) is None
+    assert "under two mesh cells" in too_fine_for(plane, 1.8)
 
 
 def test_a_search_resumed_with_other_settings_is_refused_and_a_new_confirm_mesh_resolves(tmp_path):
@@ -174,8 +176,8 @@ def test_thin_strips_are_too_fine_for_the_mesh():
     from optimise.search import thin_fraction, too_fine_for
 
     arms = Teeth(5.479, 1, 1.103, 8.664, 0.403)  # found by a search at 1 m: 70 mK there
-    assert thin_fraction(arms, 1.0) > 0.4 and "narrower than two mesh cells" in too_fine_for(arms, 1.0, True)
-    assert too_fine_for(arms, 0.25, True) is None
+    assert thin_fraction(arms, 1.0) > 0.4 and "narrower than two mesh cells" in too_fine_for(arms, 1.0)
+    assert too_fine_for(arms, 0.25) is None
     for name, plane in PRESETS.items():
         assert thin_fraction(plane, 1.0) < 0.01, name
 

@@ -42,3 +42,13 @@ def test_default_solve_is_the_surface_engine_and_methods_agree(tmp_path, capsys,
     assert beams["dense"].meta["mesh"]["method"] == "dense"
     up = beams["fast"].theta_deg <= 80
     assert np.abs(10 * np.log10(beams["fast"].gain[:, up] / beams["dense"].gain[:, up])).max() < 0.01
+
+
+def test_deck_is_an_engine_capability(tmp_path, capsys):
+    """--deck asks the engine for its input file: NEC writes one, the surface engine says it has none."""
+    from groundplane.cli import main
+
+    rc = main(["solve", "square", "--side", "3", "--mesh", "1.0", "--freqs", "55:97:4", "-o",
+               str(tmp_path / "b.npz"), "--deck", str(tmp_path / "b.deck")])
+    assert rc == 2 and "the surface engine has no input deck to write" in capsys.readouterr().err
+    assert not (tmp_path / "b.npz").exists()  # refused before solving

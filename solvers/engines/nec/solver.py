@@ -73,6 +73,24 @@ class NecSolver(FrequencySolver):
     def engine_identity(self) -> dict[str, str]:
         return engine.engine_info()
 
+    def input_deck(self, design: Design, freqs_mhz) -> str:
+        """The NEC-2 card deck of the design's model (what ``--deck`` writes)."""
+        return build_model(design, self.settings).to_deck(list(freqs_mhz), design.label())
+
+    def model_size(self, meta: dict) -> str:
+        return f"{meta.get('n_segments', '?')} segments"
+
+    def why_unresolved(self, plane) -> str | None:
+        """The wire grid merges nodes within ``merge_fraction`` of a cell: an outline edge under
+        half a cell is moved by the mesh, so the model is not the plane drawn."""
+        import numpy as np
+
+        v = np.asarray(plane.outline().exterior.coords)
+        edge = float(np.hypot(*np.diff(v, axis=0).T).min())
+        if edge < 0.5 * self.settings.spacing:
+            return f"a {edge:.2f} m outline edge is under half a mesh cell ({0.5 * self.settings.spacing:g} m)"
+        return None
+
     def check(self, design: Design) -> None:
         ground = design.ground_kind
         engine.check_engine(ground, in_process=self.workers == 0)

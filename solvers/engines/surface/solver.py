@@ -103,7 +103,6 @@ class SurfaceSolver(FrequencySolver):
     settings_class: ClassVar[type] = SurfaceSettings
     model_version: ClassVar[int] = MODEL_VERSION
     grounds: ClassVar[tuple[str, ...]] = ("pec", "soil", "free")
-    mesh_keeps_outline: ClassVar[bool] = True  # `triangle` with the outline as segments
 
     def engine_identity(self) -> dict[str, str]:
         deps = {}
