@@ -134,11 +134,6 @@ class FomSettings:
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d["fit_band_mhz"] = list(self.fit_band_mhz)
-        if not self.lst_bin_hours:  # unbinned settings keep the identity (sweep keys) they always had
-            del d["lst_bin_hours"]
-        for key, default in (("sky", "haslam"), ("lat_deg", None), ("lon_deg", None)):  # nor do the new defaults
-            if d[key] == default:
-                del d[key]
         return d
 
 

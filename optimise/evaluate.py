@@ -54,6 +54,9 @@ class Candidate:
         return {"beam_files": files, "format": self.beam_format}
 
 
+IDENTITY_VERSION = 2  # 2: every field always present (1 left out NEC's engine name and FoM fields at old defaults)
+
+
 @dataclass(frozen=True)
 class EvalSettings:
     """How candidates are solved and scored (the same for every row of one sweep)."""
@@ -103,15 +106,17 @@ class EvalSettings:
                            progress=progress)
 
     def identity(self) -> dict[str, Any]:
-        ident = {
+        """Everything a row's FoM depends on (sweep row keys, search histories). Bump
+        ``IDENTITY_VERSION`` when its form changes: old rows are then scored again (from cached
+        beams), never matched under a key that meant something else."""
+        return {
+            "identity_version": IDENTITY_VERSION,
+            "engine": self.engine,
             "soil": [self.soil.eps_r, self.soil.sigma],
             "mesh": self.solver_settings().as_dict(),
             "freqs": [round(float(f), 6) for f in self.freqs_mhz],
             "fom": self.fom.as_dict(),
         }
-        if self.engine != "nec":  # rows solved with NEC keep the keys they always had
-            ident["engine"] = self.engine
-        return ident
 
     def describe(self) -> str:
         """One line for reports: engine, model settings, band, fit band."""

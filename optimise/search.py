@@ -190,9 +190,12 @@ def too_fine_for(plane: GroundPlane, spacing: float) -> str | None:
 def same_search(out: Path, ident: dict[str, Any]) -> None:
     """Refuse to resume into ``out`` a search with other settings: its history's FoMs, keyed
     by design only, would be replayed as if solved with these (search.json records them; a
-    directory from before search.json existed adopts the settings it is resumed with)."""
+    history without one cannot say what it was solved with, so it is refused too)."""
     path = out / "search.json"
     ident = json.loads(json.dumps(ident))  # tuples as lists, as they read back
+    if not path.exists() and (out / "history.jsonl").exists():
+        raise UserInputError(f"{out} holds a search history without its settings (search.json): its FoMs cannot "
+                             "be replayed safely. Use another -o.")
     if path.exists():
         try:
             old = json.loads(path.read_text())

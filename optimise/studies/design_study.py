@@ -11,8 +11,6 @@ from ..evaluate import (
     SMOOTHING_DEGREE,
     Candidate,
     EvalSettings,
-    smoothed_fom_mk,
-    solver_cpu_s,
 )
 from ..report import write_report
 from ..sweep import run_sweep
@@ -107,30 +105,16 @@ def _study_table(settings: EvalSettings, out: Path, progress: bool, report: bool
     for name, paper_fom in DESIGN_STUDY:
         r = rows.get(name, {})
         ours = r.get("lst_averaged_fom_mk") if r.get("status") == "ok" else None
-        smoothed, cpu = _backfill(r, settings)
+        smoothed, cpu = r.get("fom_smoothed_mk"), r.get("solver_cpu_s")
         table.append({
             "preset": name, "metal_area_m2": preset(name).metal_area, "paper_fom_mk": paper_fom,
             "our_fom_mk": None if ours is None else round(ours, 1),
             "ratio": None if ours is None else round(ours / paper_fom, 3),
-            "smoothed_fom_mk": smoothed if ours is not None else None,
+            "smoothed_fom_mk": round(smoothed, 1) if ours is not None and smoothed is not None else None,
             "n_segments": r.get("n_segments") or r.get("n_unknowns"), "solve_s": r.get("solve_s"), "solver_cpu_s": cpu,
             "status": r.get("status", "not run"), "error": r.get("error", ""),
         })
     return table
-
-
-def _backfill(row: dict, settings: EvalSettings) -> tuple[float | None, float | None]:
-    """(smoothed FoM, NEC time) of a row; rows written before those fields existed are
-    scored from their cached beam, loaded once."""
-    smoothed, cpu = row.get("fom_smoothed_mk"), row.get("solver_cpu_s")
-    if (smoothed is None or cpu is None) and row.get("beam_cache_key"):
-        from solvers.engines import BeamCache
-
-        beam = BeamCache().get(row["beam_cache_key"])
-        if beam is not None:
-            smoothed = smoothed_fom_mk(beam, settings) if smoothed is None else smoothed
-            cpu = solver_cpu_s(beam) if cpu is None else cpu
-    return (None if smoothed is None else round(smoothed, 1)), cpu
 
 
 def conclusions(table: list[dict], column: str = "our_fom_mk") -> list[str]:

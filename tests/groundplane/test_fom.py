@@ -213,7 +213,7 @@ def test_lst_bins_must_tile_the_day_and_leave_old_identities_alone():
     with pytest.raises(Exception, match="100 LSTs"):
         FomSettings(n_lst=100, lst_bin_hours=2)
     assert FomSettings().lst_bin_hours == 2.0  # the default: the paper's 2 h bins (its section 6)
-    assert "lst_bin_hours" not in FomSettings(lst_bin_hours=0).as_dict()  # unbinned sweep keys are unchanged
+    assert FomSettings(lst_bin_hours=0).as_dict()["lst_bin_hours"] == 0  # every setting in the identity
     with pytest.raises(Exception, match="--lst-bin 0"):  # the message says how to score every LST instead
         FomSettings(n_lst=4)
     assert FomSettings(lst_bin_hours=2).as_dict()["lst_bin_hours"] == 2
