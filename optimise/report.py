@@ -164,6 +164,8 @@ def cell(v: Any, nd: int = 1) -> str:
 
 
 def _figures(ok: list[dict[str, Any]], out: Path) -> dict[str, Path]:
+    """The sweep report's figures (FoM vs metal, outlines, residuals). One piece: the panels
+    share one ranking and one colour per candidate."""
     from groundplane.cad import plot_outline
 
     plt = pyplot()

@@ -38,7 +38,7 @@ def _fine_sweep(model, freqs) -> tuple[np.ndarray, np.ndarray]:
 def spectral_artefacts(out: Path, command: str) -> None:
     """How much of our FoM is narrow-band structure, and where it comes from: FoM before and
     after smoothing G(nu) per direction, a 0.25 MHz sweep over soil and over PEC ground, and
-    the plate height."""
+    the plate height. One piece: the report's sections read each other's beams in order."""
     CONVERGENCE_FULL = [1.0, 0.7, 0.5, 0.35]  # the NEC spacings this study read (model v1)
 
     lines = [

@@ -60,7 +60,8 @@ def _close_block(path: Path, block: dict | None, lineno: int, blocks: list[dict]
 
 
 def read_ffe(path: str | Path) -> Beam:
-    """One FEKO ``.ffe`` file (all frequency blocks in it)."""
+    """One FEKO ``.ffe`` file (all frequency blocks in it). One piece: a line-by-line reader whose
+    every refusal names the file and line it is at."""
     path = Path(path)
     blocks: list[dict] = []
     cur: dict | None = None
@@ -169,7 +170,8 @@ _EDGES_HEADER = re.compile(r"^#\s*FREQUENCY\s+([0-9.eE+-]+)\s*MHz", re.IGNORECAS
 
 def read_edges_table(path: str | Path, n_azimuth: int = 360) -> Beam:
     """The EDGES-format FEKO gain table: per frequency, ``n_azimuth`` rows ``az N g_el0 ... g_el90``
-    (gain in dB, elevation 0 = horizon in the first column)."""
+    (gain in dB, elevation 0 = horizon in the first column). One piece: a line-by-line reader
+    whose every refusal names the file and line it is at."""
     path = Path(path)
     freqs: list[float] = []
     tables: list[np.ndarray] = []

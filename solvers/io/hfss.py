@@ -40,7 +40,8 @@ def _gain_column(names: list[str], header: list[str], path: Path) -> tuple[int, 
 
 
 def read_hfss(path: str | Path) -> Beam:
-    """One HFSS far-field CSV (any number of frequencies)."""
+    """One HFSS far-field CSV (any number of frequencies). One piece: a line-by-line reader whose
+    every refusal names the file and line it is at."""
     path = Path(path)
     with open(path, newline="", errors="replace") as fh:
         reader = csv.reader(fh)

@@ -457,7 +457,8 @@ def _near_corrections(prob: Problem, k: float, obs: np.ndarray | None, weights: 
 
 def impedance_matrix(prob: Problem, freq_hz: float, rows: np.ndarray | None = None, block: int = 96) -> np.ndarray:
     """The Galerkin EFIE matrix (ohm) at one frequency: all N x N, or only the ``rows``
-    (testing functions) given, against every basis function.
+    (testing functions) given, against every basis function. One piece: the block loop shares
+    its gathered moments between the vector and scalar parts (split, each block is gathered twice).
 
     With f_n = c (r - v) on each of its triangles, (r - va).(r' - vb) expands into the pair
     moments, and Z = C1 X1 + Cx X2 + Cy X3 where the X are [T, N] products of the moment
