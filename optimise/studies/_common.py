@@ -12,23 +12,42 @@ from groundplane.beam import Beam
 from groundplane.design import Design
 from groundplane.files import write_csv  # noqa: F401 - the studies' CSV writer
 from groundplane.fom import FomSettings, figure_of_merit
-from solvers.engines import DEFAULT_FREQS_MHZ
-from solvers.engines.nec import NecSettings, NecSolver
-from solvers.engines.nec.engine import engine_info
+from solvers.engines import DEFAULT_FREQS_MHZ, make_solver
+from solvers.engines.base import SolveSettings
 
 FREQS = np.asarray(DEFAULT_FREQS_MHZ)
 
 
-def solve(design: Design, settings: NecSettings, freqs: Iterable[float] = FREQS) -> tuple[Beam, float]:
-    """A cached NEC solve on 2 processes, with progress; returns (beam, wall seconds)."""
+def _engine_of(settings) -> str:
+    """The engine whose settings these are."""
+    from solvers.engines import ENGINES
+
+    return next(name for name, cls in ENGINES.items() if cls.settings_class is type(settings))
+
+
+def solve(design: Design, settings, freqs: Iterable[float] = FREQS) -> tuple[Beam, float]:
+    """A cached solve by the engine these settings belong to, on the default worker count, with
+    progress; returns (beam, wall seconds)."""
     t0 = time.perf_counter()
-    beam = NecSolver(settings, workers=2, progress=True).solve(design, freqs)
+    beam = make_solver(_engine_of(settings), settings, workers=SolveSettings().workers, progress=True).solve(design, freqs)
     return beam, time.perf_counter() - t0
 
 
-def cached(design: Design, settings: NecSettings, freqs: Iterable[float] = FREQS) -> Beam | None:
+def cached(design: Design, settings, freqs: Iterable[float] = FREQS) -> Beam | None:
     """The cached beam of a solve, or None (never solves)."""
-    return NecSolver(settings).cached(design, freqs)
+    return make_solver(_engine_of(settings), settings).cached(design, freqs)
+
+
+def engine_settings(engine: str, **values):
+    """``engine``'s settings with the given values where it has such a setting (a study row
+    names its plate once; each engine takes what it models)."""
+    from dataclasses import fields
+
+    from solvers.engines import ENGINES
+
+    cls = ENGINES[engine].settings_class
+    names = {f.name for f in fields(cls)}
+    return cls(**{k: v for k, v in values.items() if k in names})
 
 
 def fom_mk(beam: Beam) -> float:
@@ -69,4 +88,8 @@ def verdict(condition: bool, holds: str, fails: str) -> str:
 
 
 def machine() -> str:
-    return f"{platform.machine()}, {platform.python_version()}, engine {engine_info()}"
+    """The machine and every engine's identity, for a report's header."""
+    from solvers.engines import ENGINES
+
+    engines = "; ".join(f"{n} {make_solver(n).engine_identity()}" for n in sorted(ENGINES))
+    return f"{platform.machine()}, {platform.python_version()}, engines: {engines}"

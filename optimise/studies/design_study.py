@@ -18,12 +18,25 @@ from . import study
 from ._common import write_csv
 
 DESIGN_STUDY = list(paper.TABLE3_FOM_MK.items())  # (preset, paper FoM mK), in the table's order
-ENGINE_LABELS = {"nec": "NEC-2 (wire-grid plate)", "surface": "the surface engine (solid-sheet plate)"}
 
 
 def engine_label(settings: EvalSettings) -> str:
-    """The engine and its plate model, in words."""
-    return ENGINE_LABELS.get(settings.engine, settings.engine)
+    """The engine and its plate model, in words (the engine's own title)."""
+    from solvers.engines import ENGINES
+
+    return getattr(ENGINES[settings.engine], "title", "") or settings.engine
+
+
+def _size_unit(settings: EvalSettings) -> str:
+    from solvers.engines import ENGINES
+
+    return getattr(ENGINES[settings.engine], "size_unit", "unknowns")
+
+
+def _known_differences(settings: EvalSettings) -> list[str]:
+    """The engine's own account of how its model differs from the paper's FEKO model."""
+    solver = settings.make_solver()
+    return solver.known_differences() if hasattr(solver, "known_differences") else []
 
 
 @study("design-study", "the paper's Table 3: nine ground planes, their FoM and conclusions (i)-(iii)",
@@ -191,7 +204,7 @@ def _design_md(table: list[dict], settings: EvalSettings, command: str,
         "",
     ]
     head = ("| preset | metal area (m^2) | paper FoM (mK) | our FoM (mK) | ratio | FoM, G(nu) smoothed (mK) | "
-            f"{'segments' if settings.engine == 'nec' else 'unknowns'} | solver time (s) |")
+            f"{_size_unit(settings)} | solver time (s) |")
     if other:
         head += f" our FoM at {osp} (mK) | change {_arrow(osp, sp)} |"
     lines += [head, "|" + "---|" * head.count(" |")]
@@ -231,12 +244,12 @@ def _design_md(table: list[dict], settings: EvalSettings, command: str,
         lines += conclusions(table, "smoothed_fom_mk")
         if other and any(t.get("smoothed_fom_mk") is not None for t in other):
             lines += ["", f"and at {osp}:", ""] + conclusions(other, "smoothed_fom_mk")
-    lines += _off_rows_md(table, other, sp, osp, r0, wire_grid=settings.engine == "nec")
+    lines += _off_rows_md(table, other, sp, osp, r0, known=_known_differences(settings))
     return "\n".join(lines) + "\n"
 
 
 def _off_rows_md(table: list[dict], other: list[dict] | None, sp: str, osp: str | None,
-                 r0: float | None, wire_grid: bool = True) -> list[str]:
+                 r0: float | None, known: list[str] = ()) -> list[str]:
     """The section on rows more than 25 % from the paper, each with its likely causes."""
     def change(i: int) -> float | None:
         return _mesh_change(table, other, i)
@@ -249,9 +262,7 @@ def _off_rows_md(table: list[dict], other: list[dict] | None, sp: str, osp: str 
                   "plate or shield) differs from the FEKO model even over infinite PEC (`results/validation.md`"
                   + (f": {r0:.2f}x the FEKO FoM" if r0 is not None else "") + "); (b) the plate mesh may not be "
                   "converged at the spacing used (the last column)"
-                  + ("; (c) the paper's FEKO plate is a solid sheet on the soil, ours a wire grid a few mm above "
-                     "it, which leaks more power into the soil and carries narrow-band structure "
-                     "(`results/plate_model.md`)" if wire_grid else "") + ". Per row:", ""]
+                  + "".join(f"; ({chr(ord('c') + k)}) {why}" for k, why in enumerate(known)) + ". Per row:", ""]
         for i, t in off:
             c = change(i) if other else None
             mesh = (f"refining the mesh {_arrow(osp, sp)} moved it {c:+.1f} %, so (b) is "

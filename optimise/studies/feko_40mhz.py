@@ -14,9 +14,9 @@ from groundplane.plots import pyplot
 from groundplane.shapes import PRESETS
 from solvers.engines import make_solver
 from solvers.engines.nec import NecSettings
-from solvers.engines.surface import SurfaceSettings
 
 from . import study
+from ._common import engine_settings
 
 FEKO_DIR = Path("../shared/data/beams")  # optional data beside a checkout; --feko-dir elsewhere
 SHEET_HEIGHT = 0.005  # the sheet model of results/soil_surface.md (fixed there before this comparison)
@@ -32,15 +32,11 @@ class Case:
     refine: tuple[float, int] = (0.0, 1)  # NEC only: a finer grid inside HALF_WIDTH
 
     def settings(self):
-        if self.engine == "nec":
-            return NecSettings(spacing=self.spacing, refine_centre=self.refine)
-        return SurfaceSettings(spacing=self.spacing, plate_height=SHEET_HEIGHT)
+        # the sheet 5 mm up; NEC's production plate is at the same height (its default)
+        return engine_settings(self.engine, spacing=self.spacing, refine_centre=self.refine, plate_height=SHEET_HEIGHT)
 
     def label(self) -> str:
-        if self.engine == "nec":
-            inner = f", {self.spacing / self.refine[1]:g} m inside {self.refine[0]:g} m" if self.refine[1] > 1 else ""
-            return f"NEC grid, {self.preset}, {self.spacing:g} m{inner}"
-        return f"surface sheet, {self.preset}, {self.spacing:g} m"
+        return f"{self.preset}, {self.settings().label()}"
 
 
 FEKO_CASES = [Case("square-10", "nec", sp) for sp in (1.0, 0.7, 0.5, 0.35, 0.25)] + [
@@ -117,10 +113,11 @@ def _plot(rows: list, path: Path) -> None:
     colours = plt.get_cmap("tab20")
     for col, (phi, plane) in enumerate(((0, "E-plane"), (90, "H-plane"))):
         top, bottom = axes[0, col], axes[1, col]
+        engines = list(dict.fromkeys(e for _, e, *_ in rows if e is not None))  # one line style per engine
         for k, (label, engine, _, c) in enumerate(rows):
             feko = engine is None
             style = dict(lw=2.4, color="k") if feko else dict(lw=1.1, color=colours(k % 20),
-                                                               ls="--" if engine == "nec" else "-")
+                                                               ls=("-", "--", ":", "-.")[engines.index(engine) % 4])
             top.plot(elev, c["db"][:, phi], label=label, **style)
             if not feko:
                 bottom.plot(elev, c["db"][:, phi] - ref[:, phi], **style)
@@ -141,14 +138,14 @@ def _reading(rows: list, diffs: dict[str, tuple[float, float]]) -> list[str]:
     best = min((label for label, *_ in rows[1:]), key=lambda k: diffs[k][0])
     c = next(c for label, _, _, c in rows if label == best)
     ref = rows[0][3]
-    nec = [label for label, engine, *_ in rows[1:] if engine == "nec"]
-    closest_nec = min(nec, key=lambda k: diffs[k][0]) if nec else None
+    best_engine = next(engine for label, engine, *_ in rows if label == best)
     out = [f"- **Closest to FEKO: {best}**: rms {diffs[best][0]:.2f} dB, at most {diffs[best][1]:.2f} dB over "
            f"the sky above {ELEVATION_CUT_DEG:g} deg; widths {c['E']:.1f} / {c['H']:.1f} deg (FEKO {ref['E']:.1f} / {ref['H']:.1f}), "
            f"efficiency {c['eff']:.3f} (FEKO {ref['eff']:.3f})."]
-    if closest_nec:
-        out.append(f"- NEC-2's wire grid comes no closer than {diffs[closest_nec][0]:.2f} dB rms ({closest_nec}).")
-    others = [label for label, engine, *_ in rows[1:] if engine == "surface" and label != best]
+    for engine in dict.fromkeys(e for _, e, *_ in rows[1:] if e != best_engine):  # each other engine's best
+        closest = min((label for label, e, *_ in rows[1:] if e == engine), key=lambda k: diffs[k][0])
+        out.append(f"- The {engine} engine comes no closer than {diffs[closest][0]:.2f} dB rms ({closest}).")
+    others = [label for label, engine, *_ in rows[1:] if engine == best_engine and label != best]
     out += [f"- {label}: rms {diffs[label][0]:.2f} dB, at most {diffs[label][1]:.2f} dB." for label in others]
     return out
 

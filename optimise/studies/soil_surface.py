@@ -36,7 +36,7 @@ from solvers.engines.nec import NecSettings
 from solvers.engines.surface import SurfaceSettings
 
 from . import study
-from ._common import efficiency, machine, verdict, write_csv
+from ._common import efficiency, engine_settings, machine, verdict, write_csv
 
 FIT_BAND = np.arange(55.0, 98.0)  # all the FoM uses: every model here is scored on these 43 frequencies
 
@@ -60,22 +60,14 @@ class Row:
         return Design(PRESETS[self.preset], Soil(), antenna=antenna)
 
     def settings(self):
-        """The engine's settings for this row (NEC: its production plate at this spacing)."""
-        if self.engine == "nec":
-            return NecSettings(spacing=self.spacing, blade_cells=self.blade_cells)
-        return SurfaceSettings(spacing=self.spacing, plate_height=self.height, blade_cells=self.blade_cells,
-                               feed_width=self.feed_width)
+        """The engine's settings for this row: the row's plate, blade and feed where the engine has them."""
+        return engine_settings(self.engine, spacing=self.spacing, plate_height=self.height,
+                               blade_cells=self.blade_cells, feed_width=self.feed_width)
 
     def label(self) -> str:
         """The model in words, for the table."""
-        if self.engine == "nec":
-            d = self.settings()
-            return f"NEC-2 wire grid {self.spacing:g} m, {d.plate_wire_radius * 1e3:g} mm wires, " \
-                   f"{d.plate_height * 100:g} cm up"
-        feed = "" if self.feed_width == SurfaceSettings().feed_width else \
-            f", feed along {self.feed_width * 100:g} cm of the gap"
         panels = "" if self.panel_width is None else f", panels {self.panel_width:g} m across (diagnostic)"
-        return f"surface {self.spacing:g} m, sheet {self.height * 100:g} cm up{feed}{panels}"
+        return self.settings().label() + panels
 
 
 HEIGHTS = (0.05, 0.02, 0.01, 0.005, 0.0025)  # on the 0.5 m mesh

@@ -183,13 +183,23 @@ class FrequencySolver:
     def engine_identity(self) -> dict[str, str]:  # pragma: no cover - abstract
         raise NotImplementedError
 
+    #: the engine and its plate model in words, for reports
+    title: ClassVar[str] = ""
+    #: unit of model_size in tables
+    size_unit: ClassVar[str] = "unknowns"
+
+    def known_differences(self) -> list[str]:
+        """How this engine's model is known to differ from the paper's FEKO model (each with
+        the results file that measured it), for reports that explain a gap."""
+        return []
+
     def input_deck(self, design: Design, freqs_mhz: Iterable[float]) -> str:
         """The engine's own input file for ``design`` (for running it outside the toolkit)."""
         raise SettingsError(f"the {self.name} engine has no input deck to write")
 
     def model_size(self, meta: dict[str, Any]) -> str:
         """How big the solved model was, in the engine's own unit, from a beam's meta."""
-        return f"{meta.get('n_unknowns', '?')} unknowns"
+        return f"{meta.get('n_' + self.size_unit, '?')} {self.size_unit}"
 
     def why_unresolved(self, plane: Any) -> str | None:
         """Why this engine's model would not be the plane as drawn (None when it is): an engine

@@ -110,6 +110,13 @@ class NecSettings:
     def refined(self) -> bool:
         return self.refine_factor > 1 and self.refine_half_width > 0
 
+    def label(self) -> str:
+        """The model in words, for tables."""
+        inner = (f", {self.spacing / self.refine_factor:g} m inside {self.refine_half_width:g} m" if self.refined
+                 else "")
+        return (f"NEC-2 wire grid {self.spacing:g} m{inner}, {self.plate_wire_radius * 1e3:g} mm wires, "
+                f"{self.plate_height * 100:g} cm up")
+
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d["blade_cells"] = list(self.blade_cells)

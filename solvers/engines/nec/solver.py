@@ -77,8 +77,12 @@ class NecSolver(FrequencySolver):
         """The NEC-2 card deck of the design's model (what ``--deck`` writes)."""
         return build_model(design, self.settings).to_deck(list(freqs_mhz), design.label())
 
-    def model_size(self, meta: dict) -> str:
-        return f"{meta.get('n_segments', '?')} segments"
+    title: ClassVar[str] = "NEC-2 (wire-grid plate)"
+    size_unit: ClassVar[str] = "segments"
+
+    def known_differences(self) -> list[str]:
+        return ["the paper's FEKO plate is a solid sheet on the soil, ours a wire grid a few mm above it, which "
+                "leaks more power into the soil and carries narrow-band structure (`results/plate_model.md`)"]
 
     def why_unresolved(self, plane) -> str | None:
         """The wire grid merges nodes within ``merge_fraction`` of a cell: an outline edge under

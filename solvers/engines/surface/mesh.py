@@ -60,6 +60,11 @@ class SurfaceSettings:
         if self.method not in ("fast", "dense"):
             raise SettingsError(f"method must be 'fast' or 'dense', got {self.method!r}")
 
+    def label(self) -> str:
+        """The model in words, for tables."""
+        feed = "" if self.feed_width == 0.04 else f", feed along {self.feed_width * 100:g} cm of the gap"
+        return f"surface {self.spacing:g} m, sheet {self.plate_height * 100:g} cm up{feed}"
+
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d["blade_cells"] = list(self.blade_cells)

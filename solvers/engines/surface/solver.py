@@ -103,6 +103,7 @@ class SurfaceSolver(FrequencySolver):
     settings_class: ClassVar[type] = SurfaceSettings
     model_version: ClassVar[int] = MODEL_VERSION
     grounds: ClassVar[tuple[str, ...]] = ("pec", "soil", "free")
+    title: ClassVar[str] = "the surface engine (solid-sheet plate)"
 
     def engine_identity(self) -> dict[str, str]:
         deps = {}
