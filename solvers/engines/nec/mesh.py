@@ -38,22 +38,19 @@ from groundplane.errors import SettingsError, SolveError
 from groundplane.options import option
 from groundplane.shapes import GroundPlane
 
+from ..plate import PlateModel
+
 
 @dataclass(frozen=True)
-class NecSettings:
+class NecSettings(PlateModel):
     """How a design is discretised for NEC-2 (lengths in metres)."""
 
-    spacing: float = option(0.5, "plate mesh spacing (m): NEC wire-grid cell, surface-engine triangle size",
-                            flag="--mesh", metavar="SPACING")
     # The plate lies on the soil (SPEC section 2); NEC-2 needs its wires >= 3 radii above the
     # interface. Defaults chosen by `groundplane study plate-model` (results/plate_model.md),
     # not by the paper's numbers: the lowest height at which halving it again moves the FoM
     # of square-10 by about 5 %, with the thickest wire that height allows (r = h / 3;
     # thicker wires leak less into the soil).
     plate_wire_radius: float = option(0.0016, "plate wire radius (m)", flag="--wire-radius")
-    plate_height: float = option(0.005, "plate height above the ground (m)")
-    blade_cells: tuple[int, int] = option((12, 10), "blade panel grid cells along and across the axis",
-                                          metavar=("NX", "NY"))
     blade_wire_radius: float = option(0.002, "blade wire radius (m)")
     merge_fraction: float = 0.3
     gain_calibration: str = option("pec", "absolute gain: 'pec' divides by the blade-over-PEC mean gain / 2 "

@@ -18,11 +18,12 @@ from groundplane.errors import SettingsError, SolveError
 from groundplane.options import option
 from groundplane.shapes import GroundPlane
 
+from ..plate import PlateModel
 from .rwg import TriMesh
 
 
 @dataclass(frozen=True)
-class SurfaceSettings:
+class SurfaceSettings(PlateModel):
     """How a design is meshed into triangles for the surface engine (lengths in metres).
 
     ``--mesh``, ``--plate-height`` and ``--blade-cells`` are the same flags as NEC's and
@@ -30,11 +31,6 @@ class SurfaceSettings:
     plate height defaults to 5 mm, as NEC's: the real plate lies on the soil, and the FoM of
     a sheet on soil falls as the gap closes (``results/soil_surface.md``)."""
 
-    spacing: float = option(0.5, "plate mesh spacing (m): NEC wire-grid cell, surface-engine triangle size",
-                            flag="--mesh", metavar="SPACING")
-    plate_height: float = option(0.005, "plate height above the ground (m)")
-    blade_cells: tuple[int, int] = option((12, 10), "blade panel grid cells along and across the axis",
-                                          metavar=("NX", "NY"))
     feed_width: float = option(0.04, "surface engine: width (m) of the strip that joins the panels across the gap "
                                "(the delta-gap feed sits on it at x = 0)")
     edge_grading: float = option(0.5, "surface engine: 0 = uniform panel cells, 1 = cosine spacing, denser at the "
