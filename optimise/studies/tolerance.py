@@ -91,15 +91,18 @@ def _moved_corners(outline: np.ndarray, err: float, rng: np.random.Generator, tr
 def _missing_sheet(plane: GroundPlane, sheet: MeshSheet) -> tuple[str, PolygonPlane] | None:
     """The plane without the piece of one sheet at its edge: of the sheet plan's pieces on the
     outline holding at least half a sheet, the largest (then the farthest from the centre) whose
-    removal leaves one piece of metal around the feed; None if there is none."""
+    removal leaves one piece of metal around the feed; None if there is none. What is left
+    narrower than the mesh's grid cell (a sliver along the cut) goes too."""
     outline = plane.outline()
     plan = plan_sheets(plane, sheet)
     edge = [p for p in plan.pieces if p.in_plane.area >= 0.5 * sheet.area
             and p.in_plane.exterior.intersection(outline.exterior).length > 0.1]
     edge.sort(key=lambda p: (-round(p.in_plane.area, 6), -p.in_plane.centroid.distance(outline.centroid),
                              p.in_plane.centroid.x, p.in_plane.centroid.y))
+    half = sheet.grid / 2
     for p in edge:
-        rest = outline.difference(p.in_plane)
+        # metal narrower than one grid cell of the mesh is not there: the cut leaves no slivers
+        rest = outline.difference(p.in_plane).buffer(-half, join_style="mitre").buffer(half, join_style="mitre")
         if isinstance(rest, Polygon) and not rest.interiors and rest.contains(outline.centroid):
             c = p.in_plane.centroid
             return (f"sheet {p.label} ({p.in_plane.area:.1f} m^2 at x {c.x:+.1f}, y {c.y:+.1f} m) missing",

@@ -151,8 +151,24 @@ def _triangulate(poly, spacing: float) -> tuple[np.ndarray, np.ndarray]:
     verts = np.concatenate(pts)
     segs = np.stack([np.arange(len(verts)), np.roll(np.arange(len(verts)), -1)], axis=1)
     max_area = math.sqrt(3) / 4 * spacing ** 2
-    out = triangle.triangulate({"vertices": verts, "segments": segs}, f"pq30a{max_area:.9g}Q")
+    # Triangle's 30 deg quality refinement need not end on an outline with a sliver angle (it
+    # guarantees only 20.7 deg): cap the points it may add far above any sane mesh, and refuse
+    # an outline that reaches the cap instead of filling the memory (an as-built variant did)
+    cap = int(50 * poly.area / max_area) + 10 * len(verts) + 1000
+    out = triangle.triangulate({"vertices": verts, "segments": segs}, f"pq30a{max_area:.9g}S{cap}Q")
+    if len(out["vertices"]) - len(verts) >= cap:
+        raise SolveError(f"the outline has an angle too sharp for a quality mesh at {spacing:g} m (its smallest "
+                         f"interior angle is {_smallest_angle(ring):.1f} deg); smooth the outline or use a finer --mesh")
     return np.asarray(out["vertices"]), np.asarray(out["triangles"])
+
+
+def _smallest_angle(ring: np.ndarray) -> float:
+    """The smallest interior angle (deg) of a polygon ring (either orientation)."""
+    a, b = ring - np.roll(ring, 1, axis=0), np.roll(ring, -1, axis=0) - ring
+    turn = np.degrees(np.arctan2(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0], np.einsum("ij,ij->i", a, b)))
+    if turn.sum() < 0:  # clockwise: turn the other way
+        turn = -turn
+    return float((180.0 - turn).min())
 
 
 def plate_mesh(plane: GroundPlane, z: float, spacing: float) -> tuple[np.ndarray, np.ndarray]:

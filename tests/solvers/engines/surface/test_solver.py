@@ -134,3 +134,23 @@ def test_memory_check_counts_a_mirror_reduced_solve_as_half(monkeypatch):
     surface_solver.check_memory(n, t, 2, "big plate", reduced=True)
     with pytest.raises(SettingsError):
         surface_solver.check_memory(n, t, 4, "big plate", reduced=True)
+
+
+def test_an_outline_with_a_sliver_angle_is_refused_not_meshed_until_memory_runs_out():
+    """Triangle's 30 deg refinement need not end at a sliver angle (an as-built variant's cut left
+    one and the mesher took 24 GB); the points it may add are capped and the outline refused."""
+    import time
+
+    from shapely.geometry import Polygon
+
+    from groundplane.errors import SolveError
+    from solvers.engines.surface.mesh import _triangulate
+
+    sliver = Polygon([(0, 0), (10, 0), (10, 10), (0, 10), (0, 5.0), (-10, 4.9995), (0, 4.999)])
+    assert sliver.is_valid
+    t0 = time.perf_counter()
+    with pytest.raises(SolveError, match=r"angle too sharp for a quality mesh at 0.5 m \(its smallest interior angle is 0\.\d deg\)"):
+        _triangulate(sliver, 0.5)
+    assert time.perf_counter() - t0 < 30
+    v, t = _triangulate(Polygon([(0, 0), (10, 0), (10, 10), (0, 10)]), 0.5)  # a sane outline is untouched
+    assert len(t) > 400
