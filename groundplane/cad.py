@@ -124,29 +124,26 @@ def export_stl(shape: GroundPlane, path: str | Path, thickness: float = DEFAULT_
 
 def draw_outline(shape: GroundPlane, path: str | Path, title: str | None = None) -> Path:
     """A dimensioned drawing (SVG or PNG by suffix): outline, overall size, metal area."""
-    from .plots import pyplot
+    from .plots import finish_figure, pyplot
 
-    plt = pyplot()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig, ax = plt.subplots(figsize=(6, 6))
+    fig, ax = pyplot().subplots(figsize=(6, 6))
     plot_outline(shape, ax)
-    x0, y0, x1, y1 = shape.outline().bounds
-    pad = 0.08 * max(x1 - x0, y1 - y0)
+    dimension(ax, shape.outline().bounds)
+    ax.set_title(title or f"{shape.describe()}\nmetal area {shape.metal_area:.2f} m$^2$, "
+                 f"{shape.edge_count} edges", fontsize=9)
+    return finish_figure(fig, path, dpi=120)
+
+
+def dimension(ax: Any, bounds: tuple[float, float, float, float], pad_fraction: float = 0.08) -> None:
+    """Overall width and height arrows, in metres, outside ``bounds`` (x0, y0, x1, y1)."""
+    x0, y0, x1, y1 = bounds
+    pad = pad_fraction * max(x1 - x0, y1 - y0)
     ax.annotate("", xy=(x0, y0 - pad), xytext=(x1, y0 - pad), arrowprops=dict(arrowstyle="<->", lw=0.8))
     ax.text((x0 + x1) / 2, y0 - 1.6 * pad, f"{x1 - x0:.2f} m", ha="center", va="top")
     ax.annotate("", xy=(x1 + pad, y0), xytext=(x1 + pad, y1), arrowprops=dict(arrowstyle="<->", lw=0.8))
     ax.text(x1 + 1.3 * pad, (y0 + y1) / 2, f"{y1 - y0:.2f} m", rotation=90, va="center", ha="left")
     ax.set_xlim(x0 - 2 * pad, x1 + 2.5 * pad)
     ax.set_ylim(y0 - 2.5 * pad, y1 + 2 * pad)
-    ax.set_title(title or f"{shape.describe()}\nmetal area {shape.metal_area:.2f} m$^2$, "
-                 f"{shape.edge_count} edges", fontsize=9)
-    fig.tight_layout()
-    from .plots import save_figure
-
-    save_figure(fig, path, dpi=120)
-    plt.close(fig)
-    return path
 
 
 def plot_outline(shape: GroundPlane, ax: Any, antenna: BladeDipole | None = EDGES_LOW_BAND, **kw: Any) -> None:

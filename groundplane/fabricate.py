@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 import math
 import textwrap
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +26,7 @@ from shapely.geometry import LineString, Polygon, box
 from shapely.ops import unary_union
 
 from .errors import UserInputError
+from .options import option
 from .shapes import GroundPlane
 
 STEEL_DENSITY = 7850.0  # kg/m^3, carbon steel (the zinc of galvanising adds ~2 %, not counted)
@@ -35,20 +36,20 @@ MIN_OFFCUT_AREA = 0.01  # m^2: smaller scraps are not kept for reuse
 
 @dataclass(frozen=True)
 class MeshSheet:
-    """A stock sheet of welded wire mesh. ``width`` x ``length`` in metres, laid with
-    ``overlap`` metres shared between neighbours. Defaults: the paper gives the 5 cm grid and
-    galvanised steel; the 2.4 x 6.0 m sheet (a common stock size; the paper's 4.8 m teeth are two
-    of its widths), the 0.10 m overlap (two grid cells) and the 3 mm wire are our assumptions."""
+    """A stock sheet of welded wire mesh, laid with ``overlap`` metres shared between
+    neighbours. The paper gives the 5 cm grid and galvanised steel; the 2.4 x 6.0 m sheet (a
+    common stock size; the paper's 4.8 m teeth are two of its widths), the 0.10 m overlap (two
+    grid cells) and the 3 mm wire are our assumptions, hence options."""
 
-    width: float = 2.4
-    length: float = 6.0
-    overlap: float = 0.10
-    grid: float = 0.05
-    wire_diameter: float = 0.003
+    size: tuple[float, float] = option((2.4, 6.0), "stock mesh sheet width and length (m); a common stock size, "
+                                       "not published", flag="--sheet", metavar=("WIDTH", "LENGTH"))
+    overlap: float = option(0.10, "overlap between neighbouring sheets (m); two grid cells, not published")
+    grid: float = option(0.05, "mesh grid pitch (m): EDGES's 5 cm")
+    wire_diameter: float = option(0.003, "wire diameter (m); not published")
 
     def __post_init__(self) -> None:
-        for name in ("width", "length", "grid", "wire_diameter"):
-            v = getattr(self, name)
+        for name, v in (("width", self.width), ("length", self.length), ("grid", self.grid),
+                        ("wire_diameter", self.wire_diameter)):
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise UserInputError(f"sheet {name} must be a positive number of metres, got {v!r}")
         if not (math.isfinite(self.overlap) and self.overlap >= 0):
@@ -62,6 +63,18 @@ class MeshSheet:
         if self.wire_diameter >= self.grid:
             raise UserInputError(f"the wire diameter ({self.wire_diameter:g} m) must be smaller than the grid "
                                  f"({self.grid:g} m)")
+
+    @property
+    def width(self) -> float:
+        return float(self.size[0])
+
+    @property
+    def length(self) -> float:
+        return float(self.size[1])
+
+    def as_dict(self) -> dict[str, float]:
+        return {"width": self.width, "length": self.length, "overlap": self.overlap, "grid": self.grid,
+                "wire_diameter": self.wire_diameter}
 
     @property
     def mass_per_m2(self) -> float:
@@ -136,7 +149,7 @@ class SheetPlan:
     def summary(self) -> dict[str, Any]:
         """The plan's numbers (``plan.json``)."""
         m = self.sheet.mass_per_m2
-        return {"design": self.plane.describe(), "metal_area_m2": self.plane.metal_area, "sheet": asdict(self.sheet),
+        return {"design": self.plane.describe(), "metal_area_m2": self.plane.metal_area, "sheet": self.sheet.as_dict(),
                 "orientation": self.orientation, "sheets_bought": self.bought, "sheets_full": self.sheets_full,
                 "sheets_cut": self.sheets_cut, "pieces": len(self.pieces),
                 "pieces_from_offcuts": sum(p.from_offcut for p in self.pieces),
@@ -361,6 +374,7 @@ def cutlist_rows(plan: SheetPlan) -> list[dict[str, Any]]:
 def plan_figure(plan: SheetPlan, path: Path) -> None:
     """A drawing a crew can work from: the outline, every piece with its sheet number, the
     cut lines in red, overall dimensions; the cut sheets' cutting diagrams beside it."""
+    from .cad import dimension, plot_outline
     from .plots import finish_figure, pyplot
 
     plt = pyplot()
@@ -370,9 +384,7 @@ def plan_figure(plan: SheetPlan, path: Path) -> None:
     fig = plt.figure(figsize=(8 + 2.2 * ncol, max(8.0, 1.3 * nrow + 1)))
     grid = fig.add_gridspec(max(1, nrow), 2, width_ratios=[8, 2.2 * ncol])
     ax = fig.add_subplot(grid[:, 0])
-    outline = plan.plane.outline()
-    xy = list(outline.exterior.coords)
-    ax.fill([p[0] for p in xy], [p[1] for p in xy], color="0.85", ec="k", lw=1.0, zorder=1)
+    plot_outline(plan.plane, ax, antenna=None, color="0.85", zorder=1)
     for p in plan.pieces:
         px, py = p.in_plane.exterior.xy
         ax.plot(px, py, color="tab:blue" if not p.from_offcut else "tab:green", lw=0.6, zorder=2)
@@ -381,17 +393,7 @@ def plan_figure(plan: SheetPlan, path: Path) -> None:
         for line in _plane_cuts(p):
             lx, ly = line.xy
             ax.plot(lx, ly, color="tab:red", lw=1.0, zorder=3)
-    x0, y0, x1, y1 = outline.bounds
-    pad = 0.06 * max(x1 - x0, y1 - y0)
-    ax.annotate("", xy=(x0, y0 - pad), xytext=(x1, y0 - pad), arrowprops=dict(arrowstyle="<->", lw=0.8))
-    ax.text((x0 + x1) / 2, y0 - 1.5 * pad, f"{x1 - x0:.2f} m", ha="center", va="top")
-    ax.annotate("", xy=(x1 + pad, y0), xytext=(x1 + pad, y1), arrowprops=dict(arrowstyle="<->", lw=0.8))
-    ax.text(x1 + 1.3 * pad, (y0 + y1) / 2, f"{y1 - y0:.2f} m", rotation=90, va="center", ha="left")
-    ax.set_xlim(x0 - 2 * pad, x1 + 2.5 * pad)
-    ax.set_ylim(y0 - 2.5 * pad, y1 + 2 * pad)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (m, excitation axis)")
-    ax.set_ylabel("y (m)")
+    dimension(ax, plan.plane.outline().bounds, pad_fraction=0.06)
     s = plan.summary()
     ax.set_title(f"{textwrap.fill(plan.plane.describe(), 80)}\n{s['sheets_bought']} sheets of {plan.sheet.width:g} x "
                  f"{plan.sheet.length:g} m: {s['sheets_full']} whole, {s['sheets_cut']} cut; "

@@ -42,6 +42,7 @@ SHAPES: dict[str, type["GroundPlane"]] = {}
 
 MAX_COUNT = 1000  # teeth per side, polygon sides, star points: more is a typo (and millions of vertices)
 MIN_EXTENT_M, MAX_EXTENT_M = 1.0, 1000.0  # tip to tip
+MIN_ANGLE_DEG = 1e-3  # an outline vertex sharper than this folds back on itself (a cut's zero-width sliver)
 
 
 def param(help: str, *, bounds: tuple[float, float] | None = None, values: tuple[int, ...] = (),
@@ -194,6 +195,10 @@ class GroundPlane:
             raise ShapeError(f"{self.describe()}: the outline is not a simple polygon ({explain_validity(poly)})")
         if poly.area <= 0:
             raise ShapeError(f"{self.describe()}: the outline has zero area")
+        angle, where = smallest_interior_angle(poly)
+        if angle < MIN_ANGLE_DEG:  # shapely calls a zero-width spike valid; no mesh can follow it
+            raise ShapeError(f"{self.describe()}: the outline folds back on itself at ({where[0]:.3f}, {where[1]:.3f}) "
+                             f"m (an interior angle of {angle:.2g} deg)")
         if not MIN_EXTENT_M <= self.extent <= MAX_EXTENT_M:
             raise ShapeError(f"{self.describe()}: {self.extent:.3g} m tip to tip; a ground plane is "
                              f"{MIN_EXTENT_M:g}-{MAX_EXTENT_M:g} m (smaller than the blade, 1.25 m across, or "
@@ -265,6 +270,15 @@ class GroundPlane:
             "mirror_symmetry": self.mirror_symmetry,
             "key": self.key(),
         }
+
+
+def smallest_interior_angle(poly: Polygon) -> tuple[float, tuple[float, float]]:
+    """The outline's smallest interior angle (deg) and the vertex where it is."""
+    v = np.asarray(orient(poly, sign=1.0).exterior.coords)[:-1]  # counter-clockwise
+    a, b = v - np.roll(v, 1, axis=0), np.roll(v, -1, axis=0) - v
+    turn = np.degrees(np.arctan2(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0], np.einsum("ij,ij->i", a, b)))
+    k = int(np.argmax(turn))  # the interior angle is 180 - the left turn
+    return float(180.0 - turn[k]), (float(v[k, 0]), float(v[k, 1]))
 
 
 def _is_mirror(poly: Polygon, sx: float, sy: float) -> bool:
@@ -507,12 +521,8 @@ class PolygonPlane(GroundPlane, kind="polygon"):
         if not np.all(np.isfinite(v)):
             raise ShapeError("PolygonPlane: vertices must be finite")
         object.__setattr__(self, "vertices", tuple((float(x), float(y)) for x, y in v))
-        poly = Polygon(v)
-        if not poly.is_valid:
-            raise ShapeError(f"PolygonPlane: outline is not a simple polygon: {explain_validity(poly)}")
-        if poly.area <= 0:
-            raise ShapeError("PolygonPlane: outline has zero area")
-        if not poly.contains(Polygon([(0, 0), (1e-6, 0), (0, 1e-6)]).centroid):
+        self._validate_outline()  # the checks every family's outline passes
+        if not self.outline().contains(Polygon([(0, 0), (1e-6, 0), (0, 1e-6)]).centroid):
             raise ShapeError("PolygonPlane: the feed (origin) must lie inside the outline")
 
     def _vertices(self) -> np.ndarray:

@@ -235,11 +235,9 @@ def _setup_fabricate(p: argparse.ArgumentParser):
 
     add_shape_options(p, required=False)
     p.add_argument("--design", metavar="FILE.json", help="a saved design (an optimiser's best.json, or {\"shape\": ...})")
-    p.add_argument("--sheet", type=float, nargs=2, metavar=("WIDTH", "LENGTH"), default=(2.4, 6.0),
-                   help="stock mesh sheet in m (default 2.4 6.0)")
-    p.add_argument("--overlap", type=float, default=0.10, help="overlap between neighbouring sheets, m (default 0.10)")
-    p.add_argument("--grid", type=float, default=0.05, help="mesh grid pitch, m (default 0.05: EDGES's)")
-    p.add_argument("--wire-diameter", type=float, default=0.003, help="wire diameter, m (default 0.003; not published)")
+    from groundplane.fabricate import MeshSheet
+
+    add_options(p, MeshSheet, "mesh sheets")
     p.add_argument("--snap-to-sheet", action="store_true",
                    help="plan the nearest design whose teeth are whole half-sheet widths instead, and solve both "
                         "(the solver and FoM options below) to report the metal and FoM change (snap.json)")
@@ -257,8 +255,7 @@ def _run_fabricate(args: argparse.Namespace) -> int:
     if (plane is None) == (args.design is None):
         raise CLIError("give one design: --preset NAME, a shape with its parameters, or --design FILE.json")
     plane = plane or from_file(args.design)
-    sheet = fab.MeshSheet(width=args.sheet[0], length=args.sheet[1], overlap=args.overlap, grid=args.grid,
-                          wire_diameter=args.wire_diameter)
+    sheet = from_args(fab.MeshSheet, args)
     out = check_output_dir(Path(args.out))
     snap = None
     if args.snap_to_sheet:

@@ -66,7 +66,7 @@ def test_every_piece_is_a_cut_of_its_sheet_and_no_mesh_is_used_twice(name):
 
 
 def test_an_exact_tiling_buys_whole_sheets_and_its_numbers_are_the_geometry():
-    sheet = fab.MeshSheet(width=2.5, length=5.0, overlap=0.0, grid=0.05, wire_diameter=0.003)
+    sheet = fab.MeshSheet(size=(2.5, 5.0), overlap=0.0, grid=0.05, wire_diameter=0.003)
     plan = fab.plan_sheets(Square(side=10.0), sheet)
     s = plan.summary()
     assert (s["sheets_bought"], s["sheets_full"], s["sheets_cut"]) == (8, 8, 0)
@@ -76,7 +76,7 @@ def test_an_exact_tiling_buys_whole_sheets_and_its_numbers_are_the_geometry():
     per_m2 = 2 / 0.05 * math.pi * 0.003 ** 2 / 4 * fab.STEEL_DENSITY  # 40 m of 3 mm wire per m^2
     assert s["mass_kg"] == pytest.approx(100.0 * per_m2, rel=1e-9)
     # an overlap lays more mesh than the metal area and makes the joins overlap strips
-    lapped = fab.plan_sheets(Square(side=10.0), fab.MeshSheet(width=2.5, length=5.0, overlap=0.1))
+    lapped = fab.plan_sheets(Square(side=10.0), fab.MeshSheet(size=(2.5, 5.0), overlap=0.1))
     assert lapped.laid_area > 100.0
     assert lapped.summary()["sheets_bought"] > 8
 
@@ -94,7 +94,7 @@ def test_snap_to_sheet_turns_the_designed_teeth_into_the_built_ones():
     assert moved == {"tooth_base": (5.0, 4.8)}
     same, moved = fab.snap_to_sheet(preset("square-10"), fab.MeshSheet())
     assert same == preset("square-10") and moved == {}
-    narrow, _ = fab.snap_to_sheet(preset("sawtooth-10-8"), fab.MeshSheet(width=3.0, length=6.0))
+    narrow, _ = fab.snap_to_sheet(preset("sawtooth-10-8"), fab.MeshSheet(size=(3.0, 6.0)))
     assert narrow.tooth_base * narrow.teeth_per_side <= narrow.side  # snapped teeth still fit the side
     with pytest.raises(UserInputError, match="snap-to-sheet knows"):
         fab.snap_to_sheet(_star(), fab.MeshSheet())

@@ -16,7 +16,7 @@ from groundplane.antenna import BladeDipole
 from groundplane.design import Design
 from groundplane.errors import SettingsError, SolveError
 from groundplane.options import option
-from groundplane.shapes import GroundPlane
+from groundplane.shapes import GroundPlane, smallest_interior_angle
 
 from ..plate import PlateModel
 from .rwg import TriMesh
@@ -157,18 +157,10 @@ def _triangulate(poly, spacing: float) -> tuple[np.ndarray, np.ndarray]:
     cap = int(50 * poly.area / max_area) + 10 * len(verts) + 1000
     out = triangle.triangulate({"vertices": verts, "segments": segs}, f"pq30a{max_area:.9g}S{cap}Q")
     if len(out["vertices"]) - len(verts) >= cap:
+        angle, where = smallest_interior_angle(poly)
         raise SolveError(f"the outline has an angle too sharp for a quality mesh at {spacing:g} m (its smallest "
-                         f"interior angle is {_smallest_angle(ring):.1f} deg); smooth the outline or use a finer --mesh")
+                         f"interior angle is {angle:.1f} deg) at ({where[0]:.3f}, {where[1]:.3f}) m; smooth the outline")
     return np.asarray(out["vertices"]), np.asarray(out["triangles"])
-
-
-def _smallest_angle(ring: np.ndarray) -> float:
-    """The smallest interior angle (deg) of a polygon ring (either orientation)."""
-    a, b = ring - np.roll(ring, 1, axis=0), np.roll(ring, -1, axis=0) - ring
-    turn = np.degrees(np.arctan2(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0], np.einsum("ij,ij->i", a, b)))
-    if turn.sum() < 0:  # clockwise: turn the other way
-        turn = -turn
-    return float((180.0 - turn).min())
 
 
 def plate_mesh(plane: GroundPlane, z: float, spacing: float) -> tuple[np.ndarray, np.ndarray]:
