@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import sys
 import time
 from concurrent.futures.process import BrokenProcessPool
@@ -21,7 +20,7 @@ from groundplane.errors import SettingsError, SolveError, SolverError
 from groundplane.options import option, parse_freqs
 
 from .patterns import mirror_quadrant
-from .workers import process_pool, usable_workers
+from .workers import core_capped, process_pool, usable_workers
 
 DEFAULT_FREQS_MHZ = tuple(float(f) for f in np.arange(40.0, 101.0))  # SPEC: 40-100 MHz, 1 MHz steps
 
@@ -177,7 +176,7 @@ class FrequencySolver:
     def processes(self) -> int:
         """Processes a solve runs at once (what memory must hold): the workers asked for,
         capped at the machine's cores as :func:`usable_workers` caps them; 1 in-process."""
-        return max(1, min(self.workers, os.cpu_count() or 1))
+        return core_capped(self.workers)
 
     # --------------------------------------------------------------- engine hooks
     def engine_identity(self) -> dict[str, str]:  # pragma: no cover - abstract

@@ -56,11 +56,16 @@ def _die_with_parent(parent_pid: int) -> None:
     threading.Thread(target=watch, daemon=True, name="die-with-parent").start()
 
 
+def core_capped(workers: int) -> int:
+    """Processes that run at once for ``workers`` asked: at least one, at most the cores."""
+    return max(1, min(workers, os.cpu_count() or 1))
+
+
 def usable_workers(workers: int, jobs: int) -> int:
     """Worker processes worth starting: no more than the jobs or the machine's cores (each
     worker runs one BLAS thread); says so on stderr when it caps what was asked."""
     cores = os.cpu_count() or 1
-    n = max(1, min(workers, jobs, cores))
+    n = min(core_capped(workers), max(1, jobs))
     if workers > cores:
         print(f"--workers {workers}: this machine has {cores} cores; starting {n} worker process(es)", file=sys.stderr)
     return n

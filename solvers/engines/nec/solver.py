@@ -46,20 +46,22 @@ MODEL_VERSION = 2  # bump when the model changes: the cache key includes it
 #    symmetric plate meshes (node merging decided on the folded quadrant)
 
 
-def matrix_bytes(model: NecModel) -> int:
+def matrix_bytes(n_segments: int, sections: int = 1) -> int:
     """NEC-2's interaction matrix: N^2 / sections complex doubles (the dominant memory)."""
-    return 16 * model.n_segments ** 2 // model.sections
+    return 16 * n_segments ** 2 // sections
 
 
-def check_memory(model: NecModel, processes: int, label: str) -> None:
-    """Refuse, before any NEC work, a model whose matrices do not fit in memory."""
-    need = matrix_bytes(model) * processes
+def check_memory(n_segments: int, sections: int, processes: int, label: str, estimated: bool = False) -> None:
+    """Refuse, before any NEC work, a model whose matrices do not fit in memory (``estimated``:
+    the segment count is the outline's estimate, before the mesh is built)."""
+    each = matrix_bytes(n_segments, sections)
     have = available_memory_bytes()
-    if have is not None and need > 0.8 * have:
+    if have is not None and each * processes > 0.8 * have:
+        what = f"about {n_segments} plate segments" if estimated else f"{n_segments} segments"
         raise SettingsError(
-            f"{label}: {model.n_segments} segments need about {need / 2**30:.1f} GiB for NEC's matrices on "
-            f"{processes} process(es) ({matrix_bytes(model) / 2**30:.1f} GiB each); {have / 2**30:.1f} GiB is "
-            "available. Use a coarser --mesh or fewer --workers.")
+            f"{label}: {what} need about {each * processes / 2**30:.1f} GiB for NEC's matrices "
+            f"on {processes} process(es) ({each / 2**30:.1f} GiB each); {have / 2**30:.1f} GiB is available. Use a "
+            "coarser --mesh or fewer --workers.")
 
 
 @register_engine
@@ -87,8 +89,6 @@ class NecSolver(FrequencySolver):
     def why_unresolved(self, plane) -> str | None:
         """The wire grid merges nodes within ``merge_fraction`` of a cell: an outline edge under
         half a cell is moved by the mesh, so the model is not the plane drawn."""
-        import numpy as np
-
         v = np.asarray(plane.outline().exterior.coords)
         edge = float(np.hypot(*np.diff(v, axis=0).T).min())
         if edge < 0.5 * self.settings.spacing:
@@ -101,21 +101,15 @@ class NecSolver(FrequencySolver):
 
     def plan(self, design: Design) -> Plan:
         if design.plane is not None:  # a mesh far too fine is refused before it is built (that alone can take hours)
-            est = estimated_segments(design.plane, self.settings.spacing)
-            need = 16 * est ** 2 // 2 * self.processes  # even with NEC's 2-section symmetry
-            have = available_memory_bytes()
-            if have is not None and need > 0.8 * have:
-                raise SettingsError(
-                    f"{design.label()}: a {self.settings.spacing:g} m mesh of {design.plane.metal_area:.0f} m^2 makes "
-                    f"about {est} plate segments, whose NEC matrices need about {need / 2**30:.0f} GiB on "
-                    f"{self.processes} process(es); {have / 2**30:.1f} GiB is available. Use a coarser --mesh.")
+            check_memory(estimated_segments(design.plane, self.settings.spacing), 2, self.processes, design.label(),
+                         estimated=True)  # 2: even with NEC's rotational symmetry
         try:
             model = build_model(design, self.settings)
         except (SolveError, SettingsError):
             raise
         except Exception as exc:  # shapely/geometry trouble: name the candidate
             raise SolveError(f"{design.label()}: could not mesh the model ({exc})") from exc
-        check_memory(model, self.processes, design.label())
+        check_memory(model.n_segments, model.sections, self.processes, design.label())
         symmetric = design.plane is None or all(design.plane.mirror_symmetry.values())
         n_phi = 91 if symmetric else 360
         job = engine.NecJob(model, n_phi, self.settings.far_field_step)
