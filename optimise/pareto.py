@@ -24,6 +24,7 @@ from groundplane.fom import figure_of_merit
 from groundplane.shapes import PRESETS, to_dict
 
 from .evaluate import Candidate, EvalSettings, evaluate
+from .provenance import header
 from .report import cell
 from .search import OptimiseResult, best_plane, family, optimise
 
@@ -228,8 +229,7 @@ def write_report(front: Front, out: Path, command: str, settings: EvalSettings, 
             plane = from_dict(json.loads(r["design"]))
             cad.export(plane, out / f"answer-{r['budget_m2']:g}.step")
             cad.export(plane, out / f"answer-{r['budget_m2']:g}.svg")
-    lines = ["<!-- provenance: " + json.dumps({"report": "pareto", "search": settings.identity(),
-                                              "confirm": confirm.identity()}, sort_keys=True) + " -->",
+    lines = [header("pareto", command, settings.identity(), confirm=confirm.identity()),
              "# Metal vs chromaticity: the optimised front", "", f"Command: `{command}` (resumable; every solve cached).",
              "", f"Search level: {settings.describe()}.", "", f"Confirm level (the presets too): {confirm.describe()}.", "",
              "| budget (m^2) | area (m^2) | FoM, confirm level (mK) | search level (mK) | answer mesh (mK) | solves | design |",

@@ -53,21 +53,27 @@ def read(path: Path) -> dict[str, Any] | None:
     return head if isinstance(head, dict) else None
 
 
+def header(kind: str, command: str, settings: dict[str, Any] | None = None, **extra: Any) -> str:
+    """The provenance line a report starts with: what made it, with which code and models."""
+    head = {"report": kind, "command": command, "code": code_version(), "models": model_versions(),
+            "written": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), **extra}
+    if settings is not None:
+        head["settings"] = settings
+    return PREFIX + json.dumps(head, sort_keys=True) + SUFFIX
+
+
 def stamp(path: Path, kind: str, command: str, settings: dict[str, Any] | None = None) -> None:
     """Put (or complete) the provenance line at the top of the markdown report ``path``."""
     from groundplane.files import atomic_path
 
     text = path.read_text(encoding="utf-8")
-    head = read(path) or {}
-    if head:
+    old = read(path) or {}
+    if old:
         text = text.split("\n", 1)[1] if "\n" in text else ""
-    head.setdefault("report", kind)
-    head.update({"command": command, "code": code_version(), "models": model_versions(),
-                 "written": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())})
-    if settings is not None:
-        head.setdefault("settings", settings)
+    fresh = {k: v for k, v in old.items() if k not in ("report", "command", "code", "models", "written", "settings")}
+    line = header(old.get("report", kind), command, old.get("settings", settings), **fresh)
     with atomic_path(path, suffix=".tmp.md") as tmp:
-        tmp.write_text(PREFIX + json.dumps(head, sort_keys=True) + SUFFIX + "\n" + text, encoding="utf-8")
+        tmp.write_text(line + "\n" + text, encoding="utf-8")
 
 
 def stamp_new_reports(folder: Path, since: float, kind: str, command: str,

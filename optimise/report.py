@@ -10,10 +10,12 @@ from typing import Any
 
 import numpy as np
 
+from groundplane.cli import invocation
 from groundplane.files import atomic_path
 from groundplane.plots import pyplot
 from groundplane.shapes import from_dict
 
+from . import provenance
 from .evaluate import RESIDUAL_LSTS_H
 
 
@@ -83,7 +85,7 @@ def write_report(rows: list[dict[str, Any]], out_dir: str | Path, title: str = "
     bad = [r for r in rows if r.get("status") != "ok"]
     notes = ([MESH_NOTE] if any(r.get("shape") != "beam-file" for r in ok) else []) + \
         ([note] if (note := _sets_note(rows)) else [])
-    md = [f"# {title}", ""]
+    md = [provenance.header("report", invocation()), f"# {title}", ""]
     if preamble:
         md += [preamble, ""]
     md += [" ".join(notes), ""] if notes else []

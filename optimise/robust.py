@@ -18,6 +18,7 @@ from groundplane.errors import UserInputError
 from groundplane.files import atomic_path
 
 from .evaluate import Candidate, EvalSettings, evaluate
+from .provenance import header
 from .report import cell
 from .search import OptimiseResult, best_plane, optimise
 
@@ -82,8 +83,7 @@ def write_robust_report(shape: str, max_area: float, mode: str, nominal: Optimis
     def design(res: OptimiseResult) -> str:
         return json.dumps(res.best["params"]) if res.best else "-"
 
-    lines = ["<!-- provenance: " + json.dumps({"report": "robust", "settings": settings.identity(), "mode": mode},
-                                              sort_keys=True) + " -->",
+    lines = [header("robust", command, settings.identity(), mode=mode),
              f"# A soil-robust {shape} under {max_area:g} m^2 against the nominal one", "", f"Command: `{command}`.", "",
              f"Nominal: the best on eps_r {settings.soil.eps_r:g}, sigma {settings.soil.sigma:g} S/m: `{design(nominal)}`. "
              f"Robust: the best {mode} FoM over the grid below: `{design(robust)}`.", "",

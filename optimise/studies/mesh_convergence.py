@@ -5,12 +5,12 @@ that picks the default mesh (``--mesh``). Runs through the sweep machinery: cach
 resumable; rows shared with any other study at the same settings are not solved again."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from groundplane.shapes import preset
 
 from ..evaluate import Candidate, EvalSettings
+from ..provenance import header
 from ..sweep import run_sweep
 from . import study
 from ._common import write_csv
@@ -81,9 +81,8 @@ def write(out: Path, settings: EvalSettings, command: str, rows: list[dict]) -> 
     at = {(r["preset"], r["mesh_m"]): r for r in rows}
     st = {(s["preset"], s["mesh_m"]): s for s in steps(rows)}
     mesh, verdict = chosen_mesh(rows)
-    lines = [f"# Mesh convergence of the FoM: {', '.join(presets)}", "",
-             "<!-- provenance: " + json.dumps({"study": "mesh-convergence", "settings": settings.identity()},
-                                              sort_keys=True) + " -->", "",
+    lines = [header("study mesh-convergence", command, settings.identity()),
+             f"# Mesh convergence of the FoM: {', '.join(presets)}", "",
              f"Command: `{command}` (resumable; cached solves).", f"Settings: {settings.describe()}.", "",
              "| preset | " + " | ".join(f"{m:g} m: FoM (mK), change to next finer" for m in meshes)
              + " | unknowns | solver time (s, summed over frequencies) |",

@@ -6,7 +6,6 @@ structure: what no ground plane can remove.
 """
 from __future__ import annotations
 
-import json
 from dataclasses import replace
 from pathlib import Path
 
@@ -17,6 +16,7 @@ from groundplane.fom import figure_of_merit
 from groundplane.sky import SKY_MODELS
 
 from ..evaluate import Candidate, EvalSettings, candidate_beam
+from ..provenance import header
 from . import study
 from ._common import verdict, write_csv
 from .design_study import DESIGN_STUDY, conclusions
@@ -59,8 +59,7 @@ def _markdown(rows: list[dict], skies: tuple[str, ...], settings: EvalSettings, 
 
     design = [r for r in rows if r["paper_fom_mk"] is not None]
     floor = next(r for r in rows if r["paper_fom_mk"] is None)
-    lines = ["<!-- provenance: " + json.dumps({"study": "sky-models", "settings": settings.identity()}, sort_keys=True)
-             + " -->", "# The design study on three sky models", "", f"Command: `{command}` (cached solves).", "",
+    lines = [header("study sky-models", command, settings.identity()), "# The design study on three sky models", "", f"Command: `{command}` (cached solves).", "",
              f"Settings: {settings.describe()}. Skies: `haslam` (408 MHz map x (nu/408)^-{settings.fom.beta:g}, the "
              "paper's), `gsm2008` and `lfsm` (maps at 40-100 and 408 MHz, each pixel a cubic spline in ln T - ln nu; "
              "`groundplane/sky.py`).", "",

@@ -7,7 +7,6 @@ breaks the mirror symmetry is solved as the whole model (about four times the wo
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -20,6 +19,7 @@ from groundplane.fabricate import MeshSheet, plan_sheets
 from groundplane.shapes import GroundPlane, PolygonPlane, from_dict, preset, to_dict
 
 from ..evaluate import Candidate, EvalSettings, evaluate
+from ..provenance import header
 from . import study
 from ._common import verdict, write_csv
 
@@ -143,8 +143,7 @@ def group_summary(rows: list[dict]) -> list[dict]:
 
 def markdown(rows: list[dict], name: str, settings: EvalSettings, command: str) -> str:
     """The report: every variant, each tolerance's mean and spread, and which matters most."""
-    head = {"study": "tolerance", "preset": name, "settings": settings.identity()}
-    lines = ["<!-- provenance: " + json.dumps(head, sort_keys=True) + " -->",
+    lines = [header("study tolerance", command, settings.identity(), preset=name),
              f"# What building errors cost: `{name}` as built", "", f"Command: `{command}`", "",
              f"Settings: {settings.describe()}. Each variant is solved and scored with these settings (the plate "
              "height rows change only the plate's height). Corner errors move each outline corner by a uniform "
