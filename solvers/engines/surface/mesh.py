@@ -24,12 +24,9 @@ from .rwg import TriMesh
 
 @dataclass(frozen=True)
 class SurfaceSettings(PlateModel):
-    """How a design is meshed into triangles for the surface engine (lengths in metres).
-
-    ``--mesh``, ``--plate-height`` and ``--blade-cells`` are the same flags as NEC's and
-    mean the same things (plate cell size, plate height above the ground, panel cells). The
-    plate height defaults to 5 mm, as NEC's: the real plate lies on the soil, and the FoM of
-    a sheet on soil falls as the gap closes (``results/soil_surface.md``)."""
+    """How a design is meshed into triangles for the surface engine (lengths in metres): the
+    plate model every engine shares (:class:`~solvers.engines.plate.PlateModel`) and the
+    surface engine's own feed, panel grading and solve method."""
 
     feed_width: float = option(0.04, "surface engine: width (m) of the strip that joins the panels across the gap "
                                "(the delta-gap feed sits on it at x = 0)")
@@ -58,7 +55,8 @@ class SurfaceSettings(PlateModel):
 
     def label(self) -> str:
         """The model in words, for tables."""
-        feed = "" if self.feed_width == 0.04 else f", feed along {self.feed_width * 100:g} cm of the gap"
+        default = type(self).__dataclass_fields__["feed_width"].default
+        feed = "" if self.feed_width == default else f", feed along {self.feed_width * 100:g} cm of the gap"
         return f"surface {self.spacing:g} m, sheet {self.plate_height * 100:g} cm up{feed}"
 
     def as_dict(self) -> dict[str, Any]:
