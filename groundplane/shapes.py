@@ -592,8 +592,6 @@ def from_file(path: str | Path) -> GroundPlane:
     """A design saved as JSON: ``{"shape": kind, **params}`` (:func:`to_dict`), ``{"preset": name}``,
     or an optimiser's ``best.json`` (its ``params``; the family from ``shape``, the ``search.json``
     beside it, or the class named in ``name``)."""
-    import json
-
     path = Path(path)
     try:
         d = json.loads(path.read_text())
