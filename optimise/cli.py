@@ -28,8 +28,7 @@ def eval_settings(args: argparse.Namespace) -> EvalSettings:
     from .evaluate import EvalSettings  # here: the engines load only for a command that solves
 
     soil, solve, model = solve_options(args)
-    return EvalSettings(soil=soil, solver=model, freqs_mhz=solve.freqs_mhz, workers=solve.workers,
-                        engine=solve.engine, fom=from_args(FomSettings, args))
+    return EvalSettings(soil=soil, solve=solve, model=model, fom=from_args(FomSettings, args))
 
 
 @command("sweep", "solve, score and rank the candidates of a TOML file (resumable)")
@@ -107,8 +106,6 @@ def _setup_optimise(p: argparse.ArgumentParser):
 
 
 def _run_pareto(args: argparse.Namespace) -> int:
-    from dataclasses import replace
-
     from groundplane.options import parse_freqs
 
     from .pareto import pareto_front, verdicts, write_report
@@ -116,10 +113,9 @@ def _run_pareto(args: argparse.Namespace) -> int:
     if any(not (a > 0) for a in args.pareto):
         raise CLIError(f"--pareto: metal budgets must be positive m^2, got {args.pareto}")
     settings = eval_settings(args)
-    default = settings.solver_settings().__class__()
-    mesh = args.confirm_mesh or getattr(default, "spacing", None)
-    confirm = replace(settings, solver=replace(settings.solver_settings(), spacing=mesh) if mesh else None,
-                      freqs_mhz=parse_freqs("fit-band"))
+    mesh = args.confirm_mesh or getattr(settings.model.__class__(), "spacing", None)
+    confirm = settings.with_solve(freqs_mhz=tuple(parse_freqs("fit-band")))
+    confirm = confirm.with_spacing(mesh) if mesh else confirm
     answer = args.answer_mesh if args.answer_mesh is not None else (round(0.7 * mesh, 3) if mesh else None)
     out = Path(args.out)
     front = pareto_front(args.shape, args.pareto, settings, confirm, out, budget=args.budget, answer_mesh=answer or None,

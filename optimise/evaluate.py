@@ -23,7 +23,7 @@ from groundplane.design import Design, Soil
 from groundplane.errors import UserInputError
 from groundplane.fom import FomSettings, figure_of_merit, narrow_band_rms
 from groundplane.shapes import GroundPlane, to_dict
-from solvers.engines import DEFAULT_FREQS_MHZ, ENGINES, Solver, make_solver
+from solvers.engines import ENGINES, Solver, make_solver
 from solvers.engines.base import SolveSettings
 from solvers.io import load_beam
 
@@ -59,14 +59,40 @@ IDENTITY_VERSION = 2  # 2: every field always present (1 left out NEC's engine n
 
 @dataclass(frozen=True)
 class EvalSettings:
-    """How candidates are solved and scored (the same for every row of one sweep)."""
+    """How candidates are solved and scored (the same for every row of one sweep): the soil,
+    the solve (engine, frequencies, processes), the engine's model (mesh, plate, blade) and
+    the FoM. Each part is its own settings dataclass, declared once where it belongs."""
 
     soil: Soil = field(default_factory=Soil)
-    solver: Any = None  # the engine's settings dataclass (e.g. NecSettings); None = its defaults
-    freqs_mhz: tuple[float, ...] = DEFAULT_FREQS_MHZ
+    solve: SolveSettings = field(default_factory=SolveSettings)
+    model: Any = None  # the engine's model settings (its ``settings_class``); None: the engine's defaults
     fom: FomSettings = field(default_factory=FomSettings)
-    workers: int = 2
-    engine: str = SolveSettings.engine  # one default, the solver's
+
+    def __post_init__(self) -> None:
+        model_class = ENGINES[self.solve.engine].settings_class
+        if self.model is None:
+            object.__setattr__(self, "model", model_class())
+        elif not isinstance(self.model, model_class):
+            raise UserInputError(f"engine {self.solve.engine} takes {model_class.__name__} model settings, "
+                                 f"got {type(self.model).__name__}")
+
+    @property
+    def engine(self) -> str:
+        return self.solve.engine
+
+    @property
+    def freqs_mhz(self) -> tuple[float, ...]:
+        return self.solve.freqs_mhz
+
+    @property
+    def workers(self) -> int:
+        return self.solve.workers
+
+    def with_solve(self, **changes: Any) -> "EvalSettings":
+        """The same settings with some solve fields changed (``freqs_mhz``, ``workers``)."""
+        from dataclasses import replace
+
+        return replace(self, solve=replace(self.solve, **changes))
 
     def check_scorable(self) -> None:
         """Refuse, before any solve, an engine that cannot solve candidates on soil and
@@ -87,22 +113,19 @@ class EvalSettings:
             raise UserInputError(f"--freqs {self.freqs_mhz[0]:g}-{self.freqs_mhz[-1]:g} MHz cannot be scored: "
                                  f"{exc}") from None
 
-    def solver_settings(self) -> Any:
-        return self.solver if self.solver is not None else ENGINES[self.engine].settings_class()
-
     @property
     def spacing(self) -> float | None:
         """The engine's plate-grid spacing (m), if it has one."""
-        return getattr(self.solver_settings(), "spacing", None)
+        return getattr(self.model, "spacing", None)
 
     def with_spacing(self, spacing: float) -> "EvalSettings":
         """The same settings at another plate-grid spacing (a finer or coarser mesh)."""
         from dataclasses import replace
 
-        return replace(self, solver=replace(self.solver_settings(), spacing=spacing))
+        return replace(self, model=replace(self.model, spacing=spacing))
 
     def make_solver(self, progress: bool = False, workers: int | None = None) -> Solver:
-        return make_solver(self.engine, self.solver_settings(), workers=self.workers if workers is None else workers,
+        return make_solver(self.engine, self.model, workers=self.workers if workers is None else workers,
                            progress=progress)
 
     def identity(self) -> dict[str, Any]:
@@ -113,7 +136,7 @@ class EvalSettings:
             "identity_version": IDENTITY_VERSION,
             "engine": self.engine,
             "soil": [self.soil.eps_r, self.soil.sigma],
-            "mesh": self.solver_settings().as_dict(),
+            "mesh": self.model.as_dict(),
             "freqs": [round(float(f), 6) for f in self.freqs_mhz],
             "fom": self.fom.as_dict(),
         }
@@ -122,7 +145,7 @@ class EvalSettings:
         """One line for reports: engine, model settings, band, fit band."""
         f = self.freqs_mhz
         step = f"{f[1] - f[0]:g} MHz steps" if len(f) > 1 else "one frequency"
-        return (f"engine {self.engine} {json.dumps(self.solver_settings().as_dict())}; soil eps_r {self.soil.eps_r:g}, "
+        return (f"engine {self.engine} {json.dumps(self.model.as_dict())}; soil eps_r {self.soil.eps_r:g}, "
                 f"sigma {self.soil.sigma:g} S/m; {len(f)} frequencies {min(f):g}-{max(f):g} MHz ({step}); "
                 f"LinLog fit {self.fom.fit_band_mhz[0]:g}-{self.fom.fit_band_mhz[1]:g} MHz, {self.fom.n_lst} LSTs"
                 + (f" averaged in {self.fom.lst_bin_hours:g} h bins" if self.fom.lst_bin_hours else ""))

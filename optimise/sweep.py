@@ -64,8 +64,7 @@ __all__ = ["ConfigError", "ResultStore", "load_config", "run_sweep", "summary_ta
 def settings_from_tables(solver: dict[str, Any], fom: dict[str, Any], where: str) -> EvalSettings:
     """EvalSettings from a sweep file's ``[solver]`` and ``[fom]`` tables (strictly typed)."""
     soil, solve, model = solve_options_from_mapping(solver, f"{where}[solver]: ")
-    return EvalSettings(soil=soil, solver=model, freqs_mhz=solve.freqs_mhz, workers=solve.workers,
-                        engine=solve.engine, fom=build(FomSettings, fom, f"{where}[fom]: "))
+    return EvalSettings(soil=soil, solve=solve, model=model, fom=build(FomSettings, fom, f"{where}[fom]: "))
 
 
 def load_config(path: str | Path) -> tuple[list[Candidate], list[dict[str, Any]], EvalSettings]:

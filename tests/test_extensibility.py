@@ -3,7 +3,7 @@ each added from outside the package (here, this test file alone) and every comma
 them up: shapes, export, sweep, optimise, fom and the design-study reproduction."""
 import hashlib
 import json
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 import pytest
@@ -13,6 +13,7 @@ from groundplane.cli import main
 from groundplane.options import option
 from groundplane.shapes import SHAPES, GroundPlane, param
 from solvers.engines import ENGINES, register_engine
+from solvers.engines.base import SolveSettings
 from solvers.io import FORMATS, BeamFormat, register_format
 
 LIGHT = ["--freqs", "55:97:3", "--n-lst", "24"]
@@ -133,8 +134,9 @@ def test_stand_in_solver_runs_the_design_study(stand_in_engine, tmp_path):
     from optimise.evaluate import EvalSettings
     from optimise.studies import run_study
 
-    settings = EvalSettings(engine="stand-in", solver=StandInSettings(), freqs_mhz=tuple(np.arange(55.0, 98.0, 3.0)))
-    settings = EvalSettings(**{**settings.__dict__, "fom": settings.fom.__class__(n_lst=24)})
+    settings = EvalSettings(solve=SolveSettings(engine="stand-in", freqs_mhz=tuple(np.arange(55.0, 98.0, 3.0))),
+                            model=StandInSettings())
+    settings = replace(settings, fom=settings.fom.__class__(n_lst=24))
     run_study("design-study", tmp_path, settings)
     md = (tmp_path / "design_study.md").read_text()
     import csv

@@ -20,6 +20,7 @@ from groundplane.design import Design, InfinitePEC
 from groundplane.fom import gain_polynomial_residuals
 from groundplane.progress import Progress
 from solvers.engines import make_solver
+from solvers.engines.base import SolveSettings
 from solvers.engines.nec import NecSettings
 from solvers.engines.nec.mesh import NecModel, fold_rotation, pec_reference_model
 from solvers.engines.surface import SurfaceSettings
@@ -204,7 +205,7 @@ def blade_over_pec(out: Path, command: str) -> None:
     surface = {}
     for width in (SurfaceSettings().feed_width, pec.antenna.panel_width):
         beam = make_solver("surface", SurfaceSettings(blade_cells=SURFACE_BLADE_CELLS, feed_width=width),
-                           workers=2, progress=True).solve(pec, FREQS)
+                           workers=SolveSettings.workers, progress=True).solve(pec, FREQS)
         label = f"surface engine, {SURFACE_BLADE_CELLS[0]} x {SURFACE_BLADE_CELLS[1]} solid panels, fed on a " \
                 f"{width * 100:g} cm strip across the gap"
         surface[width] = (row(label, beam), beam.beam_width_3db(75, 0), beam.beam_width_3db(75, 90))

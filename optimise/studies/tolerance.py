@@ -64,7 +64,7 @@ def variants(plane: GroundPlane, settings: EvalSettings, draws: int = DEFAULT_DR
             out.append(Variant(f"corners +-{err * 100:g} cm", f"draw {k + 1}", _moved_corners(outline, err, rng),
                                settings))
     for h in PLATE_HEIGHTS_M:
-        raised = replace(settings, solver=replace(settings.solver_settings(), plate_height=h))
+        raised = replace(settings, model=replace(settings.model, plate_height=h))
         out.append(Variant("plate height", f"plate {h * 100:g} cm above the soil", plane, raised))
     missing = _missing_sheet(plane, sheet)
     if missing is not None:

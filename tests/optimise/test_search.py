@@ -9,6 +9,7 @@ import pytest
 
 from optimise.evaluate import EvalSettings
 from optimise.search import family, optimisable, optimise
+from solvers.engines.base import SolveSettings
 
 CHEAP = """
 [solver]
@@ -90,16 +91,16 @@ def test_small_features_are_refused_and_the_answer_is_confirmed_at_a_finer_mesh(
     and its answer is the best of its top few re-solved at the finer mesh, saying so."""
     from optimise.search import too_fine_for
 
-    coarse = EvalSettings(engine="nec")  # the wire grid, whose node merging moves short edges
-    spacing = coarse.solver_settings().spacing
+    coarse = EvalSettings(solve=SolveSettings(engine="nec"))  # the wire grid, whose node merging moves short edges
+    spacing = coarse.model.spacing
 
     def fom(p, s):  # a model artefact: the coarse mesh flatters narrow teeth, the fine one does not
-        return 100.0 + p.tooth_base * (1.0 if s.solver_settings().spacing < spacing else -1.0)
+        return 100.0 + p.tooth_base * (1.0 if s.model.spacing < spacing else -1.0)
 
     calls = []
 
     def ev(candidate, settings):
-        calls.append((candidate.plane, settings.solver_settings().spacing))
+        calls.append((candidate.plane, settings.model.spacing))
         return {"status": "ok", "lst_averaged_fom_mk": fom(candidate.plane, settings), "name": candidate.name}
 
     res = optimise("sawtooth", 300.0, coarse, tmp_path, budget=40, integer_values=(3,), evaluate_fn=ev,
@@ -148,11 +149,11 @@ def test_a_search_resumed_with_other_settings_is_refused_and_a_new_confirm_mesh_
     from groundplane.errors import UserInputError
 
     base = EvalSettings()
-    sp = base.solver_settings().spacing
+    sp = base.model.spacing
     calls = []
 
     def ev(candidate, settings):
-        calls.append(settings.solver_settings().spacing)
+        calls.append(settings.model.spacing)
         return {"status": "ok", "lst_averaged_fom_mk": 100.0 + candidate.plane.tooth_base, "name": candidate.name}
 
     kw = dict(budget=6, integer_values=(3,), evaluate_fn=ev, progress=False, confirm_top=1)

@@ -13,6 +13,7 @@ import pytest
 
 from groundplane.beam import Beam
 from optimise.sweep import ConfigError, ResultStore, load_config, run_sweep
+from solvers.engines.base import SolveSettings
 from tests.conftest import EXAMPLE_BEAM, ROOT
 
 CHEAP = """
@@ -44,7 +45,7 @@ tooth_height = 1
     cands, invalid, settings = load_config(cfg)
     assert [c.name for c in cands] == ["square-10", "sawtooth-3-1-1.5-1", "sawtooth-4-1-1.5-1"]
     assert len(invalid) == 2 and "use teeth_per_side" in invalid[0]["error"]
-    assert settings.solver.spacing == 1.0 and len(settings.freqs_mhz) == 11
+    assert settings.model.spacing == 1.0 and len(settings.freqs_mhz) == 11
 
 @pytest.mark.parametrize("body,msg", [
     ("[[candidate]]\nshape = 'hexagon'\n", "unknown shape"),
@@ -114,11 +115,11 @@ def test_config_and_cli_take_plate_height_and_a_finer_centre(tmp_path):
     cfg.write_text("[solver]\nengine = 'nec'\nmesh = 1.0\nplate_height = 0.03\nrefine_centre = [2.0, 4]\n"
                    "[[candidate]]\npreset = 'square-10'\n")
     _, _, settings = load_config(cfg)
-    mesh = settings.solver_settings()
+    mesh = settings.model
     assert (mesh.plate_height, mesh.refine_half_width, mesh.refine_factor) == (0.03, 2.0, 4)
     args = build_parser().parse_args(["optimise", "--engine", "nec", "--shape", "square", "--max-area", "100", "-o",
                                       "x", "--refine-centre", "2", "4", "--plate-height", "0.03"])
-    mesh = eval_settings(args).solver_settings()
+    mesh = eval_settings(args).model
     assert (mesh.plate_height, mesh.refine_half_width, mesh.refine_factor) == (0.03, 2.0, 4)
     args = build_parser().parse_args(["optimise", "--engine", "nec", "--shape", "square", "--max-area", "100", "-o",
                                       "x", "--refine-centre", "2", "2.5"])
@@ -173,10 +174,10 @@ def test_an_engine_that_cannot_solve_on_soil_is_refused_before_any_solve(monkeyp
     from optimise.evaluate import EvalSettings
     from solvers.engines.surface import SurfaceSolver
 
-    EvalSettings(engine="surface").check_scorable()
+    EvalSettings(solve=SolveSettings(engine="surface")).check_scorable()
     monkeypatch.setattr(SurfaceSolver, "grounds", ("pec", "free"))
     with pytest.raises(UserInputError, match="solves over infinite PEC ground only"):
-        EvalSettings(engine="surface").check_scorable()
+        EvalSettings(solve=SolveSettings(engine="surface")).check_scorable()
 
 
 @pytest.mark.parametrize("toml, message", [

@@ -12,6 +12,7 @@ import pytest
 from groundplane.options import parse_freqs
 from optimise.evaluate import Candidate, EvalSettings, evaluate
 from optimise.studies.design_study import DESIGN_STUDY, conclusions, rank_correlation
+from solvers.engines.base import SolveSettings
 
 pytestmark = pytest.mark.slow
 README = Path(__file__).resolve().parents[2] / "README.md"
@@ -20,7 +21,7 @@ README = Path(__file__).resolve().parents[2] / "README.md"
 def test_design_study_ranks_with_table3_at_the_readme_spearman(monkeypatch):
     cache = os.environ.get("GROUNDPLANE_SLOW_CACHE", str(Path.home() / ".cache" / "groundplane"))
     monkeypatch.setenv("GROUNDPLANE_CACHE", cache)
-    settings = EvalSettings(freqs_mhz=tuple(parse_freqs("fit-band")))  # the committed study's settings
+    settings = EvalSettings(solve=SolveSettings(freqs_mhz=tuple(parse_freqs("fit-band"))))  # the committed study's settings
     table = []
     for name, paper_fom in DESIGN_STUDY:
         from groundplane.shapes import preset

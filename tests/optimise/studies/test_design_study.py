@@ -7,6 +7,7 @@ import pytest
 
 from groundplane.beam import Beam
 from optimise.evaluate import EvalSettings
+from solvers.engines.base import SolveSettings
 from tests.conftest import EXAMPLE_BEAM
 
 CHEAP = """
@@ -36,7 +37,7 @@ def test_design_study_table_conclusions_compare_mesh_and_retry(tmp_path, monkeyp
         if candidate.name in broken:
             raise RuntimeError("GEOMETRY DATA ERROR -- WIRE #5 INTERSECTS WIRE #6")
         # chromaticity falling with metal area and with mesh refinement, like the real thing
-        amp = 0.02 * settings.solver_settings().spacing * 100.0 / candidate.plane.metal_area
+        amp = 0.02 * settings.model.spacing * 100.0 / candidate.plane.metal_area
         g = np.repeat(hb.gain[:1], f.size, axis=0) * (1 + amp * np.sin(f / 3))[:, None, None]
         return Beam(f, hb.theta_deg, hb.phi_deg, g, meta={"seconds_per_frequency": [2.0] * f.size,
                                                            "n_segments": 100}), 0.0
@@ -45,8 +46,8 @@ def test_design_study_table_conclusions_compare_mesh_and_retry(tmp_path, monkeyp
     import optimise.studies.design_study as reproduce
 
     monkeypatch.setattr(reproduce, "pec_reference_fom", lambda settings, progress=False: 123.6)
-    fine = EvalSettings(solver=NecSettings(spacing=0.7), freqs_mhz=tuple(f), fom=replace(EvalSettings().fom, n_lst=24))
-    coarse = replace(fine, solver=NecSettings(spacing=1.0))
+    fine = EvalSettings(solve=SolveSettings(engine="nec", freqs_mhz=tuple(f)), model=NecSettings(spacing=0.7), fom=replace(EvalSettings().fom, n_lst=24))
+    coarse = fine.with_spacing(1.0)
     table = design_study(fine, tmp_path, "groundplane reproduce design-study", progress=False)
     assert [t["preset"] for t in table] == [n for n, _ in DESIGN_STUDY]
     assert next(t for t in table if t["preset"] == "sawtooth-15-12")["status"] == "failed"

@@ -23,7 +23,7 @@ def test_variants_are_the_named_errors():
         for v in drawn:
             moved = np.asarray(v.plane.vertices) - np.asarray(plane.outline().exterior.coords)[:-1]
             assert np.abs(moved).max() <= err and np.abs(moved).max() > 0.2 * err
-    heights = sorted(v.settings.solver_settings().plate_height for v in vs if v.group == "plate height")
+    heights = sorted(v.settings.model.plate_height for v in vs if v.group == "plate height")
     assert heights == list(tol.PLATE_HEIGHTS_M)
     missing = next(v for v in vs if v.group == "missing sheet")
     assert plane.metal_area - missing.plane.metal_area > 0.5 * 2.4 * 6.0
