@@ -124,6 +124,35 @@ def add_options(parser: argparse.ArgumentParser, cls: type, title: str | None = 
         g.add_argument(o.flag, help=o.help + default, **kw)
 
 
+def markdown_table(groups: list[tuple[str, type]]) -> str:
+    """A markdown table of every option in ``groups`` ((title, settings dataclass) pairs): flag,
+    default and help, from the dataclasses themselves, so the docs cannot drift from ``--help``.
+    A flag shared by several dataclasses is listed once, under its first group."""
+    lines = ["| option | default | what it is |", "|---|---|---|"]
+    seen: set[str] = set()
+    for title, cls in groups:
+        rows = [o for o in options(cls) if o.flag not in seen]
+        if rows:
+            lines.append(f"| **{title}** | | |")
+        for o in rows:
+            seen.add(o.flag)
+            meta = o.metavar if isinstance(o.metavar, tuple) else (o.metavar,) if o.metavar else ()
+            flag = " ".join([o.flag, *meta]) if meta else o.flag
+            if o.hint is bool and o.default is True:
+                flag = f"--[no-]{o.flag[2:]}"
+            if o.switch is not None or (o.hint is bool and o.default is False):
+                default = "off"
+            elif o.parse and isinstance(o.default, tuple) and len(o.default) > 4:
+                default = f"{o.default[0]:g}:{o.default[-1]:g}:{o.default[1] - o.default[0]:g}"
+            elif o.default is None:
+                default = "-"
+            else:
+                default = _fmt(o.default)
+            choices = f" ({' / '.join(o.choices)})" if o.choices else ""
+            lines.append(f"| `{flag}` | {default} | {o.help.replace('|', chr(92) + '|')}{choices} |")
+    return "\n".join(lines)
+
+
 def _number(o: Option, v: Any, t: type, where: str) -> Any:
     """``v`` as a ``t`` (float or int), from a string (command line) or a TOML value; strict."""
     if isinstance(v, str):

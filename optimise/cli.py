@@ -11,16 +11,24 @@ from groundplane.cli import CLIError, command, invocation
 from groundplane.files import check_output_dir
 from groundplane.fom import FomSettings
 from groundplane.options import add_options, from_args, options
-from solvers.cli import add_solve_options, solve_options
+from solvers.cli import add_solve_options, solve_option_groups, solve_options
 
 if TYPE_CHECKING:
     from .evaluate import EvalSettings
 
 
+FOM_GROUP = "Figure of Merit (defaults: the paper's)"
+
+
+def eval_option_groups() -> list[tuple[str, type]]:
+    """(title, settings dataclass) of every option a command that solves and scores takes."""
+    return [*solve_option_groups(), (FOM_GROUP, FomSettings)]
+
+
 def add_eval_options(p: argparse.ArgumentParser) -> None:
     """Every solver and FoM option (generated from the settings dataclasses)."""
     add_solve_options(p)
-    add_options(p, FomSettings, "Figure of Merit (defaults: the paper's)")
+    add_options(p, FomSettings, FOM_GROUP)
 
 
 def eval_settings(args: argparse.Namespace) -> EvalSettings:

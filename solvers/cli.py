@@ -14,16 +14,22 @@ if TYPE_CHECKING:
     from .engines.base import SolveSettings
 
 
+def solve_option_groups() -> list[tuple[str, type]]:
+    """(title, settings dataclass) for every option of a command that solves: soil, the solve,
+    the plate model every engine shares, then each engine's own model settings."""
+    from .engines import ENGINES  # here, not at import: `groundplane fom` never loads an engine
+    from .engines.base import SolveSettings
+    from .engines.plate import PlateModel
+
+    return [("soil (MRO by default)", Soil), ("solver", SolveSettings), ("plate model (every engine)", PlateModel),
+            *((f"{name} model (--engine {name})", cls.settings_class) for name, cls in ENGINES.items())]
+
+
 def add_solve_options(p: argparse.ArgumentParser) -> None:
     """Soil, engine, frequencies and every engine's model options (generated from their
     settings dataclasses, so each command that solves takes the same flags)."""
-    from .engines import ENGINES  # here, not at import: `groundplane fom` never loads an engine
-    from .engines.base import SolveSettings
-
-    add_options(p, Soil, "soil (MRO by default)")
-    add_options(p, SolveSettings, "solver")
-    for name, cls in ENGINES.items():
-        add_options(p, cls.settings_class, f"{name} model (--engine {name})")
+    for title, cls in solve_option_groups():
+        add_options(p, cls, title)
 
 
 def solve_options(args: argparse.Namespace) -> tuple[Soil, SolveSettings, Any]:
