@@ -3,7 +3,8 @@
 engine's settings extend with its own."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
+from typing import Any
 
 from groundplane.options import option
 
@@ -19,3 +20,7 @@ class PlateModel:
     plate_height: float = option(0.005, "plate height above the ground (m)")
     blade_cells: tuple[int, int] = option((12, 10), "blade panel grid cells along and across the axis",
                                           metavar=("NX", "NY"))
+
+    def as_dict(self) -> dict[str, Any]:
+        """Every field, tuples as lists (JSON's form): what a cache key and a report's model are."""
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}

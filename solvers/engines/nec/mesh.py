@@ -27,8 +27,8 @@ NEC-2 input deck. Pure geometry (numpy, shapely): no NEC engine is needed here.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
-from typing import Any, Sequence
+from dataclasses import dataclass, field
+from typing import Sequence
 
 import numpy as np
 
@@ -113,14 +113,6 @@ class NecSettings(PlateModel):
                  else "")
         return (f"NEC-2 wire grid {self.spacing:g} m{inner}, {self.plate_wire_radius * 1e3:g} mm wires, "
                 f"{self.plate_height * 100:g} cm up")
-
-    def as_dict(self) -> dict[str, Any]:
-        d = asdict(self)
-        d["blade_cells"] = list(self.blade_cells)
-        d.pop("refine_centre")
-        if self.refined:  # a uniform grid keeps the cache keys it had before refinement existed
-            d["refine_half_width"], d["refine_factor"] = self.refine_half_width, self.refine_factor
-        return d
 
 
 # -------------------------------------------------------------------------- model

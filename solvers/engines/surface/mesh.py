@@ -7,8 +7,7 @@ axes are built on one quadrant and mirrored, so the discrete model keeps the sym
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -59,10 +58,6 @@ class SurfaceSettings(PlateModel):
         feed = "" if self.feed_width == default else f", feed along {self.feed_width * 100:g} cm of the gap"
         return f"surface {self.spacing:g} m, sheet {self.plate_height * 100:g} cm up{feed}"
 
-    def as_dict(self) -> dict[str, Any]:
-        d = asdict(self)
-        d["blade_cells"] = list(self.blade_cells)
-        return d
 
 
 def graded(n: int, grading: float) -> np.ndarray:

@@ -65,9 +65,9 @@ def test_graded_plate_mesh_is_finer_under_the_antenna_and_valid():
     centre = np.all(np.abs(mids) < 2.5, axis=1)  # 2.0 m snaps out to the coarse line at 2.5 m
     assert lengths[centre].max() == pytest.approx(0.25) and lengths[~centre].max() == pytest.approx(1.0)
     assert len(graded) > len(coarse)
-    # a uniform grid keeps its cache identity: no refinement fields in the key
-    assert "refine_factor" not in NecSettings().as_dict()
-    assert NecSettings(refine_centre=(2.0, 2)).as_dict()["refine_factor"] == 2
+    # the refinement is part of the model's identity (its cache key), uniform or not
+    assert NecSettings().as_dict()["refine_centre"] == [0.0, 1]
+    assert NecSettings(refine_centre=(2.0, 2)).as_dict() != NecSettings().as_dict()
     with pytest.raises(ValueError, match="FACTOR"):
         NecSettings(refine_centre=(1.0, 0))
 
