@@ -135,6 +135,13 @@ def _run_pareto(args: argparse.Namespace) -> int:
     return 0 if all(r["fom_mk"] is not None for r in front.rows) else 1
 
 
+def _search_options(args: argparse.Namespace) -> dict:
+    """The search's own flags, for every kind of search (one place, so none is silently dropped)."""
+    return {"algorithm": args.algorithm, "strategy": args.strategy, "confirm_top": args.confirm_top,
+            "integer_values": tuple(args.integers) if args.integers else None, "executor": args.executor,
+            "scheduler": args.scheduler}
+
+
 def _run_robust(args: argparse.Namespace) -> int:
     from .robust import robust_study, write_robust_report
 
@@ -144,7 +151,7 @@ def _run_robust(args: argparse.Namespace) -> int:
     confirm = args.confirm_mesh if args.confirm_mesh is not None else (round(0.7 * spacing, 3) if spacing else None)
     fine = settings.with_spacing(confirm) if confirm else None
     nominal, robust, table = robust_study(args.shape, args.max_area, settings, out, budget=args.budget,
-                                          mode=args.robust, confirm_settings=fine)
+                                          mode=args.robust, confirm_settings=fine, **_search_options(args))
     path = write_robust_report(args.shape, args.max_area, args.robust, nominal, robust, table, out / "robust.md",
                                invocation(), fine or settings)
     print(path.read_text().split("\n")[-2])
@@ -171,10 +178,8 @@ def _run_optimise(args: argparse.Namespace) -> int:
     out = Path(args.out)
     spacing = settings.spacing
     confirm = args.confirm_mesh if args.confirm_mesh is not None else (round(0.7 * spacing, 3) if spacing else None)
-    res = optimise(args.shape, args.max_area, settings, out, algorithm=args.algorithm, budget=args.budget,
-                   integer_values=tuple(args.integers) if args.integers else None, progress=True,
-                   confirm_mesh=confirm or None, confirm_top=args.confirm_top, strategy=args.strategy,
-                   executor=args.executor, scheduler=args.scheduler)
+    res = optimise(args.shape, args.max_area, settings, out, budget=args.budget, progress=True,
+                   confirm_mesh=confirm or None, **_search_options(args))
     if res.best and res.best.get("confirmed_at"):  # the answer and the presets at the mesh it holds at
         settings = settings.with_spacing(res.best["confirmed_at"])
     rows = [evaluate(Candidate(name, plane=preset(name)), settings) for name in args.compare]

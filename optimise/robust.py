@@ -52,17 +52,18 @@ def over_soils(evaluate_fn: Evaluate, soils: tuple[Soil, ...], mode: str) -> Eva
 
 def robust_study(shape: str, max_area: float, settings: EvalSettings, out_dir: str | Path, *, budget: int,
                  mode: str = "mean", soils: tuple[Soil, ...] = SOIL_GRID, evaluate_fn: Evaluate | None = None,
-                 progress: bool = True, confirm_settings: EvalSettings | None = None
+                 progress: bool = True, confirm_settings: EvalSettings | None = None, **search: Any
                  ) -> tuple[OptimiseResult, OptimiseResult, list[dict[str, Any]]]:
     """The nominal search (``settings.soil``; ``out/nominal``) and the robust one (``out/robust``),
-    then both answers scored on every soil of the grid at the confirm level."""
+    then both answers scored on every soil of the grid at the confirm level. ``search``: the
+    search's own options (algorithm, strategy, confirm_top, ...), the same for both searches."""
     out = Path(out_dir)
     base = evaluate_fn or (lambda c, s: evaluate(c, s, progress=progress))
     nominal = optimise(shape, max_area, settings, out / "nominal", budget=budget, evaluate_fn=base, progress=progress,
-                       confirm_settings=confirm_settings)
+                       confirm_settings=confirm_settings, **search)
     robust = optimise(shape, max_area, settings, out / "robust", budget=budget, progress=progress,
                       evaluate_fn=over_soils(base, soils, mode), confirm_settings=confirm_settings,
-                      objective={"soils": [[s.eps_r, s.sigma] for s in soils], "robust": mode})
+                      objective={"soils": [[s.eps_r, s.sigma] for s in soils], "robust": mode}, **search)
     level = confirm_settings or settings
     table = []
     for soil in soils:

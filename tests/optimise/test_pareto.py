@@ -136,3 +136,25 @@ def test_the_front_does_not_rise_with_metal(tmp_path):
     small, big = front.results[150.0].best, front.results[600.0].best
     assert big["search_fom_mk"] <= small["search_fom_mk"] + 1e-9
     assert any(n == "answer at 150 m^2" for n, _ in calls)
+
+
+def test_the_robust_search_takes_the_search_options_the_command_line_gives(tmp_path):
+    """--strategy, --confirm-top and the rest reach both searches of --soil-grid, not only --max-area's."""
+    import inspect
+
+    from groundplane.cli import build_parser
+    from optimise.cli import _search_options
+    from optimise.robust import robust_study
+
+    argv = ["optimise", "--shape", "square", "--max-area", "400", "--strategy", "local", "-o", str(tmp_path)]
+    search_args = build_parser(argv).parse_args(argv)
+    search = _search_options(search_args)
+    assert set(search) <= set(inspect.signature(optimise).parameters)
+
+    def ev(c, s):
+        return {"status": "ok", "lst_averaged_fom_mk": 100.0 + (c.plane.side - 15.0) ** 2}
+    robust_study("square", 400.0, EvalSettings(), tmp_path, budget=6, evaluate_fn=ev, progress=False,
+                 **{**search, "executor": "local"})
+    for which in ("nominal", "robust"):
+        phases = {json.loads(line)["phase"] for line in (tmp_path / which / "history.jsonl").read_text().splitlines()}
+        assert "explore" not in phases, (which, phases)  # the local strategy has no exploration phase
