@@ -323,6 +323,9 @@ def _setup_study(p: argparse.ArgumentParser):
     p.add_argument("--cached-only", action="store_true",
                    help="soil-surface: report the rows already solved and name the rest (an interim report)")
     p.add_argument("--preset", dest="study_preset", metavar="NAME", help="tolerance: the design (default extended)")
+    p.add_argument("--design", dest="study_design", type=Path, metavar="FILE",
+                   help="tolerance: the design from a file instead of a preset (a shape JSON or an optimiser's "
+                        "best.json)")
     p.add_argument("--draws", type=int, metavar="N", help="tolerance: Monte-Carlo draws per corner error (default 3)")
     add_eval_options(p)
     return _run_study_cmd
@@ -351,7 +354,8 @@ def _run_study_cmd(args: argparse.Namespace) -> int:
         if args.name != "soil-surface":
             raise CLIError("--cached-only is for soil-surface")
         extra["cached_only"] = True
-    for key, flag, into in (("study_preset", "--preset", "preset_name"), ("draws", "--draws", "draws")):
+    for key, flag, into in (("study_preset", "--preset", "preset_name"), ("study_design", "--design", "design"),
+                            ("draws", "--draws", "draws")):
         if getattr(args, key) is not None:
             if args.name != "tolerance":
                 raise CLIError(f"{flag} is for tolerance")
@@ -360,6 +364,12 @@ def _run_study_cmd(args: argparse.Namespace) -> int:
         from groundplane.shapes import preset
 
         preset(extra["preset_name"])  # an unknown name is refused here, before any solve
+        if extra.get("design") is not None:
+            raise CLIError("tolerance: give --preset or --design, not both")
+    if extra.get("design") is not None:
+        from groundplane.shapes import from_file
+
+        from_file(extra["design"])  # a bad design file is refused here, before any solve
     if extra.get("draws") is not None and extra["draws"] < 1:
         raise CLIError("--draws must be >= 1")
     settings = None

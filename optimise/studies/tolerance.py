@@ -16,7 +16,7 @@ from shapely.geometry import Polygon
 
 from groundplane.errors import SolveError
 from groundplane.fabricate import MeshSheet, plan_sheets
-from groundplane.shapes import GroundPlane, PolygonPlane, from_dict, preset, to_dict
+from groundplane.shapes import GroundPlane, PolygonPlane, from_dict, from_file, preset, to_dict
 
 from ..evaluate import Candidate, EvalSettings, evaluate
 from ..provenance import header
@@ -111,12 +111,13 @@ def _missing_sheet(plane: GroundPlane, sheet: MeshSheet) -> tuple[str, PolygonPl
 
 
 def tolerance(out: Path, settings: EvalSettings, command: str, name: str = "extended",
-              draws: int = DEFAULT_DRAWS, progress: bool = True) -> list[dict]:
-    """Solve and score every variant (cached, so a rerun resumes); write tolerance.md/.csv."""
+              draws: int = DEFAULT_DRAWS, progress: bool = True, plane: GroundPlane | None = None) -> list[dict]:
+    """Solve and score every variant of ``plane`` (default: the preset ``name``; cached, so a rerun
+    resumes); write tolerance.md/.csv."""
     out.mkdir(parents=True, exist_ok=True)
     rows = []
     nominal = None
-    for v in variants(preset(name), settings, draws):
+    for v in variants(preset(name) if plane is None else plane, settings, draws):
         row = evaluate(Candidate(f"{v.group}: {v.label}", v.plane), v.settings, progress=progress)
         if row["status"] != "ok":
             raise SolveError(f"tolerance: solving {v.group} / {v.label} failed: {row.get('error')} (the rows "
@@ -178,9 +179,15 @@ def markdown(rows: list[dict], name: str, settings: EvalSettings, command: str) 
     return "\n".join(lines) + "\n"
 
 
-@study("tolerance", "a design (--preset, default extended) against its as-built variants: tooth base, corner "
-       "errors, plate height, a missing sheet, the antenna turned and off centre", uses_settings=True)
+@study("tolerance", "a design (--preset, default extended, or --design FILE) against its as-built variants: tooth "
+       "base, corner errors, plate height, a missing sheet, the antenna turned and off centre", uses_settings=True)
 def _run(out: Path, settings: EvalSettings, command: str, preset_name: str = "extended",
-         draws: int = DEFAULT_DRAWS) -> None:
-    for r in tolerance(out, settings, command, preset_name, draws):
+         draws: int = DEFAULT_DRAWS, design: Path | None = None) -> None:
+    plane = from_file(design) if design is not None else None
+    name = preset_name
+    if plane is not None:
+        d = to_dict(plane)
+        name = f"{design}: {d.pop('shape')} " + ", ".join(
+            f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in d.items())
+    for r in tolerance(out, settings, command, name, draws, plane=plane):
         print(f"{r['group']:20s} {r['variant']:52s} {r['fom_mk']:8.1f} mK  {r['change_percent']:+6.1f} %")

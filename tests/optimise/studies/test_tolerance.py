@@ -56,3 +56,20 @@ def test_the_reading_follows_the_rows(tmp_path, monkeypatch, turned, holds):
     assert ("Every as-built variant stays within 5 %" in md) == (not holds)
     with open(tmp_path / "tolerance.csv") as fh:
         assert len(list(csv.DictReader(fh))) == len(rows)
+
+
+def test_a_design_file_is_studied_like_a_preset(tmp_path, monkeypatch):
+    """`study tolerance --design best.json`: an optimiser's answer gets the same variants, named by its file."""
+    import json
+
+    from groundplane.cli import main
+
+    design = tmp_path / "best.json"
+    design.write_text(json.dumps({"shape": "teeth", "params": {"side": 4.6, "teeth_per_side": 1, "tooth_base": 2.25,
+                                                               "tooth_height": 9.8, "tip_fraction": 0.96}}))
+    monkeypatch.setattr(tol, "evaluate", _fake_evaluate({"tooth base": 130.0}))
+    assert main(["study", "tolerance", "--design", str(design), "--draws", "1", "-o", str(tmp_path / "out")]) == 0
+    md = (tmp_path / "out" / "tolerance.md").read_text()
+    assert "tooth base 2.05 m (designed 2.25)" in md and "best.json: teeth side 4.6" in md
+    assert main(["study", "tolerance", "--design", str(tmp_path / "nope.json"), "-o", str(tmp_path / "o2")]) == 2
+    assert main(["study", "tolerance", "--design", str(design), "--preset", "extended", "-o", str(tmp_path / "o3")]) == 2
