@@ -168,24 +168,45 @@ def verdicts(front: Front, target: float = 0.25) -> list[str]:
     return out
 
 
+def label_offsets(points: list[tuple[float, float]], near: tuple[float, float] = (60.0, 8.0),
+                  step: float = 9.0) -> list[float]:
+    """Vertical label offsets (points) so that labels of points closer than ``near`` (m^2, mK)
+    stack instead of overprinting: each label goes above the ones already placed near it."""
+    offsets: list[float] = [0.0] * len(points)
+    placed: list[int] = []
+    for i in sorted(range(len(points)), key=lambda k: points[k][1]):
+        crowd = [j for j in placed if abs(points[j][0] - points[i][0]) < near[0]
+                 and abs(points[j][1] - points[i][1]) < near[1]]
+        offsets[i] = max((offsets[j] + step for j in crowd), default=0.0)
+        placed.append(i)
+    return offsets
+
+
 def pareto_figure(front: Front, path: Path) -> Path:
     """FoM vs metal area: the front, the presets and the PEC floor on the same axes."""
     from groundplane.plots import finish_figure, pyplot
 
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 5))
-    done = [r for r in front.rows if r["fom_mk"] is not None]
-    ax.plot([r["area_m2"] for r in done], [r["fom_mk"] for r in done], "o-", color="C0", label="optimised (confirm level)")
+    done = sorted((r for r in front.rows if r["fom_mk"] is not None), key=lambda r: r["budget_m2"])
+    ax.plot([r["area_m2"] for r in done], [r["fom_mk"] for r in done], "o", color="C0",
+            label="each budget's answer (confirm level) at its metal area")
+    if done:  # the front: the lowest FoM found with at most this much metal, up to the largest budget
+        by_area = sorted(done, key=lambda r: r["area_m2"])
+        best = list(np.minimum.accumulate([r["fom_mk"] for r in by_area]))
+        ax.step([r["area_m2"] for r in by_area] + [max(r["budget_m2"] for r in done)], best + best[-1:],
+                where="post", color="C0", lw=1.2, label="lowest FoM found with at most this much metal")
     ans = [r for r in done if r.get("answer_fom_mk") is not None]
     if ans:
         ax.plot([r["area_m2"] for r in ans], [r["answer_fom_mk"] for r in ans], "s", mfc="none", color="C0",
                 label=f"the same at the answer mesh ({ans[0]['answer_mesh_m']:g} m)")
+    shown = [p for p in front.presets if p["preset"] != "pec" and p["fom_mk"] is not None]
+    for p, dy in zip(shown, label_offsets([(p["area_m2"], p["fom_mk"]) for p in shown])):
+        ax.plot(p["area_m2"], p["fom_mk"], "^", color="C3")
+        ax.annotate(p["preset"], (p["area_m2"], p["fom_mk"]), fontsize=7, xytext=(4, 2 + dy), textcoords="offset points")
     for p in front.presets:
         if p["preset"] == "pec":
             ax.axhline(p["fom_mk"], color="k", ls="--", lw=1, label=f"blade over infinite PEC ({p['fom_mk']:.1f} mK)")
-        elif p["fom_mk"] is not None:
-            ax.plot(p["area_m2"], p["fom_mk"], "^", color="C3")
-            ax.annotate(p["preset"], (p["area_m2"], p["fom_mk"]), fontsize=7, xytext=(3, 3), textcoords="offset points")
     ax.plot([], [], "^", color="C3", label="the paper's presets")
     for b in sorted({r["budget_m2"] for r in front.rows}):
         ax.axvline(b, color="0.85", lw=0.8, zorder=0)

@@ -158,3 +158,11 @@ def test_the_robust_search_takes_the_search_options_the_command_line_gives(tmp_p
     for which in ("nominal", "robust"):
         phases = {json.loads(line)["phase"] for line in (tmp_path / which / "history.jsonl").read_text().splitlines()}
         assert "explore" not in phases, (which, phases)  # the local strategy has no exploration phase
+
+
+def test_preset_labels_that_would_overprint_are_stacked():
+    from optimise.pareto import label_offsets
+
+    # sawtooth-20-16, sawtooth-20-20 and extended sit within a few m^2 and mK of each other
+    offsets = label_offsets([(600.0, 88.5), (600.0, 90.9), (592.0, 87.7), (100.0, 223.1)])
+    assert sorted(offsets[:3]) == [0.0, 9.0, 18.0] and offsets[3] == 0.0
