@@ -216,7 +216,8 @@ def _figures(ok: list[dict[str, Any]], out: Path) -> dict[str, Path]:
         ax.grid(alpha=0.3)
     axes[1, 0].set_xlabel("frequency (MHz)")
     axes[1, 1].set_xlabel("frequency (MHz)")
-    axes[0, 0].legend(fontsize=6)
+    if axes[0, 0].get_legend_handles_labels()[0]:  # rows without stored residuals draw nothing
+        axes[0, 0].legend(fontsize=6)
     fig.tight_layout()
     figs["residuals"] = out / "residuals.png"
     fig.savefig(figs["residuals"], dpi=100)
