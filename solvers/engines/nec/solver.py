@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+from contextlib import nullcontext
 from dataclasses import replace
 from pathlib import Path
 from typing import ClassVar, Iterable
@@ -135,11 +136,14 @@ class NecSolver(FrequencySolver):
         cache = BeamCache() if self.use_cache else None
         if cache is not None and (hit := cache.get(key)) is not None:
             return hit
-        job = engine.NecJob(model, 91, self.settings.far_field_step, "self")
-        gain = mirror_quadrant(engine.engine_call(engine.solve_band, job, freqs))
-        beam = Beam(freqs, np.arange(91.0), np.arange(360.0), gain, {"n_segments": model.n_segments})
-        if cache is not None:
-            cache.put(key, beam)
+        with cache.lock(key, f"nec model ({model.n_segments} segments)") if cache is not None else nullcontext():
+            if cache is not None and (hit := cache.get(key)) is not None:  # solved by another process meanwhile
+                return hit
+            job = engine.NecJob(model, 91, self.settings.far_field_step, "self")
+            gain = mirror_quadrant(engine.engine_call(engine.solve_band, job, freqs))
+            beam = Beam(freqs, np.arange(91.0), np.arange(360.0), gain, {"n_segments": model.n_segments})
+            if cache is not None:
+                cache.put(key, beam)
         return beam
 
     def _calibration_store(self, ref: NecModel) -> Path:
