@@ -69,6 +69,8 @@ class EvalSettings:
     fom: FomSettings = field(default_factory=FomSettings)
 
     def __post_init__(self) -> None:
+        if self.solve.engine not in ENGINES:
+            raise UserInputError(f"engine '{self.solve.engine}': choose one of {', '.join(ENGINES)}")
         model_class = ENGINES[self.solve.engine].settings_class
         if self.model is None:
             object.__setattr__(self, "model", model_class())

@@ -203,3 +203,15 @@ def test_optimise_compare_names_are_checked_before_the_search(tmp_path, capsys):
     assert main(["optimise", "--shape", "square", "--max-area", "100", "--compare", "sqaure-10",
                  "-o", str(tmp_path / "o")]) == 2
     assert "unknown preset 'sqaure-10'" in capsys.readouterr().err and not (tmp_path / "o").exists()
+
+
+def test_eval_settings_refuse_an_unknown_engine_and_a_model_of_another_engine():
+    from groundplane.errors import UserInputError
+    from optimise.evaluate import EvalSettings
+    from solvers.engines.nec import NecSettings
+
+    with pytest.raises(UserInputError, match="engine 'foo': choose one of"):
+        EvalSettings(solve=SolveSettings(engine="foo"))
+    with pytest.raises(UserInputError, match="engine surface takes SurfaceSettings model settings, got NecSettings"):
+        EvalSettings(model=NecSettings())
+    assert EvalSettings(solve=SolveSettings(engine="nec"), model=NecSettings(spacing=0.7)).spacing == 0.7
