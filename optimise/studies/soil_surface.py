@@ -30,6 +30,7 @@ from groundplane.fom import (
     fit_band_mask,
     narrow_band_rms,
 )
+from groundplane.options import parse_freqs
 from groundplane.shapes import PRESETS
 from solvers.engines import make_solver
 from solvers.engines.nec import NecSettings
@@ -38,7 +39,7 @@ from solvers.engines.surface import SurfaceSettings
 from . import study
 from ._common import efficiency, engine_settings, machine, verdict, write_csv
 
-FIT_BAND = np.arange(55.0, 98.0)  # all the FoM uses: every model here is scored on these 43 frequencies
+FIT_BAND = np.array(parse_freqs("fit-band"))  # all the FoM uses: every model here is scored on these 43 frequencies
 
 
 @dataclass(frozen=True)

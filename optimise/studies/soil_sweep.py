@@ -108,10 +108,10 @@ def _soil_plot(rows: list[dict], path: Path) -> None:
                              and r[column] is not None)
                 if pts:
                     ax.plot(*zip(*pts), marker + style, label=label)
-    a.set_xlabel("relative permittivity (sigma 0.02 S/m)")
+    a.set_xlabel(f"relative permittivity (sigma {paper.MRO_SIGMA_S_PER_M:g} S/m)")
     a.set_ylabel("LST-averaged FoM (mK)")
     b.set_xscale("log")
-    b.set_xlabel("conductivity S/m (eps_r 3.5)")
+    b.set_xlabel(f"conductivity S/m (eps_r {paper.MRO_EPS_R:g})")
     for ax in (a, b):
         ax.grid(alpha=0.3)
     b.legend(fontsize=7)
