@@ -242,8 +242,7 @@ def _history_plot(plt, history, path: Path, max_area: float) -> None:
 def _setup_fabricate(p: argparse.ArgumentParser):
     from groundplane.cli import add_shape_options
 
-    add_shape_options(p, required=False)
-    p.add_argument("--design", metavar="FILE.json", help="a saved design (an optimiser's best.json, or {\"shape\": ...})")
+    add_shape_options(p)
     from groundplane.fabricate import MeshSheet
 
     add_options(p, MeshSheet, "mesh sheets")
@@ -258,12 +257,8 @@ def _setup_fabricate(p: argparse.ArgumentParser):
 def _run_fabricate(args: argparse.Namespace) -> int:
     from groundplane import fabricate as fab
     from groundplane.cli import shape_from_args
-    from groundplane.shapes import from_file
 
     plane = shape_from_args(args)
-    if (plane is None) == (args.design is None):
-        raise CLIError("give one design: --preset NAME, a shape with its parameters, or --design FILE.json")
-    plane = plane or from_file(args.design)
     sheet = from_args(fab.MeshSheet, args)
     out = check_output_dir(Path(args.out))
     snap = None

@@ -127,6 +127,8 @@ def add_shape_options(p: argparse.ArgumentParser, required: bool = True) -> None
     """``--preset NAME`` or ``SHAPE --param ...``, generated from the registered families."""
     p.add_argument("shape", nargs="?", choices=sorted(sh.SHAPES), help="shape family (or use --preset)")
     p.add_argument("--preset", choices=sorted(sh.PRESETS), help="a design-study preset")
+    p.add_argument("--design", metavar="FILE.json",
+                   help="a saved design: an optimiser's best.json, or {\"shape\": ..., parameters} / {\"preset\": ...}")
     g = p.add_argument_group("shape parameters (metres unless stated)")
     users: dict[str, list[str]] = {}
     helps: dict[str, set[str]] = {}
@@ -155,9 +157,11 @@ def _shape_value(kind: str, prm: sh.Param, text: str) -> Any:
 
 def shape_from_args(args: argparse.Namespace) -> sh.GroundPlane | None:
     """The ground plane the command line describes (None when none is given and none is required)."""
-    if args.preset and args.shape:
-        raise CLIError("give either --preset or a shape with its parameters, not both")
     given = {k[len("shape_"):]: v for k, v in vars(args).items() if k.startswith("shape_") and v is not None}
+    if sum(bool(x) for x in (args.preset, args.shape or given, getattr(args, "design", None))) > 1:
+        raise CLIError("give one design: --preset NAME, a shape with its parameters, or --design FILE.json")
+    if getattr(args, "design", None):
+        return sh.from_file(args.design)
     if args.preset:
         if given:
             raise CLIError(f"--preset {args.preset} takes no shape parameters (got {', '.join(sorted(given))})")
@@ -166,7 +170,7 @@ def shape_from_args(args: argparse.Namespace) -> sh.GroundPlane | None:
         if given:
             raise CLIError("shape parameters given without a shape: name the family (e.g. 'square --side 10')")
         if args._shape_required:
-            raise CLIError("no ground plane: give --preset NAME or a shape (e.g. 'square --side 10')")
+            raise CLIError("no ground plane: give --preset NAME, a shape (e.g. 'square --side 10') or --design FILE.json")
         return None
     cls = sh.SHAPES[args.shape]
     own = {p.name: p for p in cls.parameters()}

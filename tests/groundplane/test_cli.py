@@ -222,3 +222,18 @@ def test_an_empty_beam_file_says_empty(tmp_path, capsys):
     (tmp_path / "b.npz").write_bytes(b"")
     assert main(["fom", str(tmp_path / "b.npz")]) == 2
     assert "empty file (0 bytes)" in capsys.readouterr().err
+
+
+def test_every_command_that_takes_a_design_takes_a_design_file(tmp_path, capsys):
+    """--design FILE.json (an optimiser's best.json) works wherever --preset does, and is one of three."""
+    import json
+
+    design = tmp_path / "best.json"
+    design.write_text(json.dumps({"params": {"side": 10.0}, "name": "Square(side=10.0)"}))
+    assert main(["export", "--design", str(design), "-o", str(tmp_path / "d.svg")]) == 0
+    assert (tmp_path / "d.svg").exists()
+    capsys.readouterr()
+    assert main(["export", "--design", str(design), "--preset", "square-10", "-o", str(tmp_path / "e.svg")]) == 2
+    assert "give one design" in capsys.readouterr().err
+    assert main(["solve", "--design", str(tmp_path / "missing.json"), "-o", str(tmp_path / "b.npz")]) == 2
+    assert "no such design file" in capsys.readouterr().err
