@@ -500,7 +500,8 @@ class _Evaluator:
         res = self.evaluate_fn(Candidate(name or f"{self.shape}-{len(self.hist.rows)}", plane=plane), self.settings)
         fom = res.get("lst_averaged_fom_mk")
         if res.get("status") == "ok" and fom is not None and math.isfinite(fom):
-            return {"status": "ok", "fom_mk": float(fom), "name": name or plane.describe()}
+            kept = {k: res[k] for k in ("per_soil_mk",) if k in res}  # a robust objective's FoM on each soil
+            return {"status": "ok", "fom_mk": float(fom), "name": name or plane.describe(), **kept}
         return {"status": "failed", "fom_mk": None, "error": str(res.get("error", "non-finite FoM"))}
 
 
