@@ -101,7 +101,9 @@ def _setup_optimise(p: argparse.ArgumentParser):
                    help="--pareto: score N of the searched designs at the confirm level too, to measure how well the "
                         "search level ranks (default 24; 0: don't)")
     p.add_argument("--integers", type=int, nargs="+", help="values of the family's integer parameter to try")
-    p.add_argument("--compare", nargs="*", default=[], metavar="PRESET", help="presets scored with the same settings")
+    p.add_argument("--compare", nargs="*", default=[], metavar="PRESET|FILE.json",
+                   help="designs scored with the same settings (with --soil-grid: on every soil): preset names or "
+                        "design files (an optimiser's best.json)")
     p.add_argument("--step", action="store_true", help="write the best design's STEP")
     p.add_argument("--confirm-mesh", type=float, default=None, metavar="SPACING",
                    help="re-solve the best few at this finer mesh before answering (default 0.7 x the search "
@@ -142,7 +144,14 @@ def _search_options(args: argparse.Namespace) -> dict:
             "scheduler": args.scheduler}
 
 
-def _run_robust(args: argparse.Namespace) -> int:
+def compare_plane(name: str):
+    """A ``--compare`` entry: a preset by name, or a design file (ends in .json)."""
+    from groundplane.shapes import from_file, preset
+
+    return from_file(name) if name.endswith(".json") else preset(name)
+
+
+def _run_robust(args: argparse.Namespace, compared: dict | None = None) -> int:
     from .robust import robust_study, write_robust_report
 
     settings = eval_settings(args)
@@ -151,7 +160,8 @@ def _run_robust(args: argparse.Namespace) -> int:
     confirm = args.confirm_mesh if args.confirm_mesh is not None else (round(0.7 * spacing, 3) if spacing else None)
     fine = settings.with_spacing(confirm) if confirm else None
     nominal, robust, table = robust_study(args.shape, args.max_area, settings, out, budget=args.budget,
-                                          mode=args.robust, confirm_settings=fine, **_search_options(args))
+                                          mode=args.robust, confirm_settings=fine, compare=compared or {},
+                                          **_search_options(args))
     path = write_robust_report(args.shape, args.max_area, args.robust, nominal, robust, table, out / "robust.md",
                                invocation(), fine or settings)
     print(path.read_text().split("\n")[-2])
@@ -161,19 +171,17 @@ def _run_robust(args: argparse.Namespace) -> int:
 
 def _run_optimise(args: argparse.Namespace) -> int:
     from groundplane.plots import pyplot
-    from groundplane.shapes import preset
 
     from .evaluate import Candidate, evaluate
     from .report import write_report
     from .search import best_plane, optimise
 
-    for name in args.compare:  # before the search, not after it
-        preset(name)
+    compared = {name: compare_plane(name) for name in args.compare}  # refused before the search, not after it
     check_output_dir(args.out)
     if args.pareto:
         return _run_pareto(args)
     if args.soil_grid:
-        return _run_robust(args)
+        return _run_robust(args, compared)
     settings = eval_settings(args)
     out = Path(args.out)
     spacing = settings.spacing
@@ -182,7 +190,7 @@ def _run_optimise(args: argparse.Namespace) -> int:
                    confirm_mesh=confirm or None, **_search_options(args))
     if res.best and res.best.get("confirmed_at"):  # the answer and the presets at the mesh it holds at
         settings = settings.with_spacing(res.best["confirmed_at"])
-    rows = [evaluate(Candidate(name, plane=preset(name)), settings) for name in args.compare]
+    rows = [evaluate(Candidate(name, plane=plane), settings) for name, plane in compared.items()]
     if res.best:
         best = best_plane(args.shape, res.best)
         rows.append(evaluate(Candidate(f"optimised {args.shape}", plane=best), settings))

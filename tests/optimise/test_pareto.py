@@ -114,8 +114,10 @@ def test_robust_search_minimises_over_the_soils_and_reports_both(tmp_path):
     def ev(c, s):
         best_side = 10.0 + 30.0 * s.soil.sigma  # 10.15 m on dry soil .. 11.5 on wet
         return {"status": "ok", "lst_averaged_fom_mk": 100.0 + (c.plane.side - best_side) ** 2 * (1 + s.soil.sigma * 40)}
+    from groundplane.shapes import Square
+
     nominal, robust, table = robust_study("square", 400.0, EvalSettings(), tmp_path, budget=14, evaluate_fn=ev,
-                                          progress=False)
+                                          progress=False, compare={"square-19": Square(19.0)})
     assert len(table) == len(SOIL_GRID) == 5
     history = [json.loads(line) for line in (tmp_path / "robust" / "history.jsonl").read_text().splitlines()]
     assert all(len(r["per_soil_mk"]) == 5 for r in history if r["status"] == "ok")  # each soil's FoM is kept
@@ -124,6 +126,7 @@ def test_robust_search_minimises_over_the_soils_and_reports_both(tmp_path):
     md = write_robust_report("square", 400.0, "mean", nominal, robust, table, tmp_path / "robust.md", "test",
                              EvalSettings()).read_text()
     assert "| 2.5 | 0.005 |" in md and ("lower, as its objective asks" in md or "not lower" in md)
+    assert "square-19 (mK) |" in md and "The robust answer scores below `square-19` on 5 of 5 soils: on every soil" in md
     # the robust search's directory refuses a resume with another objective
     with pytest.raises(ValueError, match="other settings"):
         optimise("square", 400.0, EvalSettings(), tmp_path / "robust", budget=14, evaluate_fn=ev, progress=False)
@@ -168,3 +171,12 @@ def test_preset_labels_that_would_overprint_are_stacked():
     # sawtooth-20-16, sawtooth-20-20 and extended sit within a few m^2 and mK of each other
     offsets = label_offsets([(600.0, 88.5), (600.0, 90.9), (592.0, 87.7), (100.0, 223.1)])
     assert sorted(offsets[:3]) == [0.0, 9.0, 18.0] and offsets[3] == 0.0
+
+
+def test_the_soil_comparison_sentence_follows_the_rows():
+    from optimise.robust import beats_on_soils
+
+    rows = [{"robust_fom_mk": 50.0, "sawtooth_fom_mk": 100.0}, {"robust_fom_mk": 80.0, "sawtooth_fom_mk": 100.0}]
+    assert beats_on_soils(rows, "robust", "sawtooth").endswith("on every soil of the grid, by 20-50 %.")
+    rows[1]["robust_fom_mk"] = 120.0
+    assert "on 1 of 2 soils: not on every soil" in beats_on_soils(rows, "robust", "sawtooth")
