@@ -114,10 +114,14 @@ def write_robust_report(shape: str, max_area: float, mode: str, nominal: Optimis
                   f"| robust | {rm:.1f} | {rx:.1f} |", ""]
         k = 0 if mode == "mean" else 1
         better = (rm, rx)[k] < (nm, nx)[k]
-        lines.append(f"The robust answer's {mode} over the grid is {(rm, rx)[k]:.1f} mK against the nominal answer's "
-                     f"{(nm, nx)[k]:.1f}: " + ("lower, as its objective asks." if better else
-                                               "not lower: the robust search did not find a better design for the "
-                                               "grid than the nominal one."))
+        if nominal.best and robust.best and nominal.best["params"] == robust.best["params"]:
+            lines.append(f"Both searches answer the same design: on this grid the nominal answer is also the best "
+                         f"{mode} FoM the robust search found ({len(robust.history)} evaluations).")
+        else:
+            lines.append(f"The robust answer's {mode} over the grid is {(rm, rx)[k]:.1f} mK against the nominal "
+                         f"answer's {(nm, nx)[k]:.1f}: " + ("lower, as its objective asks." if better else
+                                                           "not lower: the robust search did not find a better "
+                                                           "design for the grid than the nominal one."))
     lines += [line for c in compared for line in ("", beats_on_soils(table, "robust", c))]
     with atomic_path(path, suffix=".tmp.md") as tmp:
         tmp.write_text("\n".join(lines) + "\n")

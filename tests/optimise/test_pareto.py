@@ -125,7 +125,10 @@ def test_robust_search_minimises_over_the_soils_and_reports_both(tmp_path):
     assert mean["robust"] <= mean["nominal"] + 1e-6
     md = write_robust_report("square", 400.0, "mean", nominal, robust, table, tmp_path / "robust.md", "test",
                              EvalSettings()).read_text()
-    assert "| 2.5 | 0.005 |" in md and ("lower, as its objective asks" in md or "not lower" in md)
+    assert "| 2.5 | 0.005 |" in md
+    same = nominal.best["params"] == robust.best["params"]
+    assert ("Both searches answer the same design" in md) == same
+    assert same or ("lower, as its objective asks" in md or "not lower" in md)
     assert "square-19 (mK) |" in md and "The robust answer scores below `square-19` on 5 of 5 soils: on every soil" in md
     # the robust search's directory refuses a resume with another objective
     with pytest.raises(ValueError, match="other settings"):
@@ -180,3 +183,22 @@ def test_the_soil_comparison_sentence_follows_the_rows():
     assert beats_on_soils(rows, "robust", "sawtooth").endswith("on every soil of the grid, by 20-50 %.")
     rows[1]["robust_fom_mk"] = 120.0
     assert "on 1 of 2 soils: not on every soil" in beats_on_soils(rows, "robust", "sawtooth")
+
+
+@pytest.mark.parametrize("robust_side, robust_mean, sentence", [
+    (10.0, None, "Both searches answer the same design"),
+    (12.0, 90.0, "lower, as its objective asks"),
+    (12.0, 130.0, "not lower: the robust search"),
+])
+def test_the_robust_reading_follows_the_rows(tmp_path, robust_side, robust_mean, sentence):
+    from optimise.robust import write_robust_report
+    from optimise.search import OptimiseResult
+
+    def result(side):
+        return OptimiseResult({"params": {"side": side}}, [{"status": "ok"}] * 4, tmp_path)
+    table = [{"eps_r": 2.5, "sigma": s, "nominal_fom_mk": 100.0,
+              "robust_fom_mk": 100.0 if robust_mean is None else robust_mean} for s in (0.005, 0.05)]
+    md = write_robust_report("square", 400.0, "mean", result(10.0), result(robust_side), table, tmp_path / "r.md", "t",
+                             EvalSettings()).read_text()
+    readings = ["Both searches answer the same design", "lower, as its objective asks", "not lower: the robust search"]
+    assert [r for r in readings if r in md] == [sentence]
