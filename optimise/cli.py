@@ -101,6 +101,9 @@ def _setup_optimise(p: argparse.ArgumentParser):
                    help="--pareto: score N of the searched designs at the confirm level too, to measure how well the "
                         "search level ranks (default 24; 0: don't)")
     p.add_argument("--integers", type=int, nargs="+", help="values of the family's integer parameter to try")
+    p.add_argument("--seed", nargs="+", default=[], metavar="FILE.json",
+                   help="--max-area: designs the search scores first (e.g. another search's best.json); each must "
+                        "be a member of --shape's family and fit the budget")
     p.add_argument("--compare", nargs="*", default=[], metavar="PRESET|FILE.json",
                    help="designs scored with the same settings (with --soil-grid: on every soil): preset names or "
                         "design files (an optimiser's best.json)")
@@ -139,9 +142,29 @@ def _run_pareto(args: argparse.Namespace) -> int:
 
 def _search_options(args: argparse.Namespace) -> dict:
     """The search's own flags, for every kind of search (one place, so none is silently dropped)."""
+    from groundplane.shapes import from_file
+
     return {"algorithm": args.algorithm, "strategy": args.strategy, "confirm_top": args.confirm_top,
             "integer_values": tuple(args.integers) if args.integers else None, "executor": args.executor,
-            "scheduler": args.scheduler}
+            "scheduler": args.scheduler, "seeds": {f: from_file(f) for f in args.seed} or None}
+
+
+def _check_seeds(args: argparse.Namespace) -> None:
+    """Refuse, before any solve, a --seed the search could not use (it would be skipped silently)."""
+    from .search import family, seeds_for
+
+    if not args.seed:
+        return
+    if args.strategy != "global":
+        raise CLIError("--seed needs --strategy global (the local search starts from the family's own start point)")
+    seeds = _search_options(args)["seeds"]
+    fam = family(args.shape)
+    ints = tuple(args.integers) if args.integers else (fam.integer_values or (None,))
+    usable = {name for name, *_ in seeds_for(fam, args.max_area, ints, seeds)}
+    for name, plane in seeds.items():
+        if name not in usable:
+            raise CLIError(f"--seed {name}: not a {args.shape} design within the bounds and the {args.max_area:g} m^2 "
+                           f"budget ({plane.metal_area:.1f} m^2)")
 
 
 def compare_plane(name: str):
@@ -177,6 +200,9 @@ def _run_optimise(args: argparse.Namespace) -> int:
     from .search import best_plane, optimise
 
     compared = {name: compare_plane(name) for name in args.compare}  # refused before the search, not after it
+    if args.seed and args.pareto:
+        raise CLIError("--seed is for --max-area (a --pareto search seeds each budget with the smaller budgets' answers)")
+    _check_seeds(args)
     check_output_dir(args.out)
     if args.pareto:
         return _run_pareto(args)

@@ -202,3 +202,22 @@ def test_the_robust_reading_follows_the_rows(tmp_path, robust_side, robust_mean,
                              EvalSettings()).read_text()
     readings = ["Both searches answer the same design", "lower, as its objective asks", "not lower: the robust search"]
     assert [r for r in readings if r in md] == [sentence]
+
+
+def test_seed_designs_are_checked_before_the_search_and_reach_it(tmp_path, capsys):
+    """--seed FILE.json: a design the search cannot use is refused by name before any solve; a
+    usable one is handed to the search (and so scored first)."""
+    from groundplane.cli import build_parser, main
+    from optimise.cli import _search_options
+
+    cross = tmp_path / "cross.json"
+    cross.write_text(json.dumps({"shape": "teeth", "side": 4.6, "teeth_per_side": 1, "tooth_base": 2.25,
+                                 "tooth_height": 9.8, "tip_fraction": 0.96}))
+    assert main(["optimise", "--shape", "teeth", "--max-area", "50", "--seed", str(cross), "-o", str(tmp_path / "a")]) == 2
+    assert f"--seed {cross}: not a teeth design within the bounds and the 50 m^2 budget (107.6 m^2)" in capsys.readouterr().err
+    assert main(["optimise", "--shape", "teeth", "--pareto", "200", "--seed", str(cross), "-o", str(tmp_path / "b")]) == 2
+    assert "--seed is for --max-area" in capsys.readouterr().err
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+    argv = ["optimise", "--shape", "teeth", "--max-area", "200", "--seed", str(cross), "-o", str(tmp_path / "c")]
+    seeds = _search_options(build_parser(argv).parse_args(argv))["seeds"]
+    assert list(seeds) == [str(cross)] and seeds[str(cross)].metal_area == pytest.approx(107.6, abs=0.1)
