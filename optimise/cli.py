@@ -140,31 +140,26 @@ def _run_pareto(args: argparse.Namespace) -> int:
     return 0 if all(r["fom_mk"] is not None for r in front.rows) else 1
 
 
-def _search_options(args: argparse.Namespace) -> dict:
+def _search_options(args: argparse.Namespace, seeds: dict | None = None) -> dict:
     """The search's own flags, for every kind of search (one place, so none is silently dropped)."""
-    from groundplane.shapes import from_file
-
     return {"algorithm": args.algorithm, "strategy": args.strategy, "confirm_top": args.confirm_top,
             "integer_values": tuple(args.integers) if args.integers else None, "executor": args.executor,
-            "scheduler": args.scheduler, "seeds": {f: from_file(f) for f in args.seed} or None}
+            "scheduler": args.scheduler, "seeds": seeds or None}
 
 
-def _check_seeds(args: argparse.Namespace) -> None:
-    """Refuse, before any solve, a --seed the search could not use (it would be skipped silently)."""
-    from .search import family, seeds_for
+def _seeds(args: argparse.Namespace) -> dict:
+    """The --seed designs, read once and refused (by search.check_seeds) before any solve."""
+    from groundplane.shapes import from_file
 
-    if not args.seed:
-        return
-    if args.strategy != "global":
-        raise CLIError("--seed needs --strategy global (the local search starts from the family's own start point)")
-    seeds = _search_options(args)["seeds"]
+    from .search import check_seeds, family
+
+    if args.seed and args.pareto:
+        raise CLIError("--seed is for --max-area (a --pareto search seeds each budget with the smaller budgets' answers)")
+    seeds = {f: from_file(f) for f in args.seed}
     fam = family(args.shape)
-    ints = tuple(args.integers) if args.integers else (fam.integer_values or (None,))
-    usable = {name for name, *_ in seeds_for(fam, args.max_area, ints, seeds)}
-    for name, plane in seeds.items():
-        if name not in usable:
-            raise CLIError(f"--seed {name}: not a {args.shape} design within the bounds and the {args.max_area:g} m^2 "
-                           f"budget ({plane.metal_area:.1f} m^2)")
+    check_seeds(fam, args.max_area, tuple(args.integers) if args.integers else (fam.integer_values or (None,)),
+                seeds, args.strategy)
+    return seeds
 
 
 def compare_plane(name: str):
@@ -174,7 +169,7 @@ def compare_plane(name: str):
     return from_file(name) if name.endswith(".json") else preset(name)
 
 
-def _run_robust(args: argparse.Namespace, compared: dict | None = None) -> int:
+def _run_robust(args: argparse.Namespace, compared: dict | None = None, seeds: dict | None = None) -> int:
     from .robust import robust_study, write_robust_report
 
     settings = eval_settings(args)
@@ -184,7 +179,7 @@ def _run_robust(args: argparse.Namespace, compared: dict | None = None) -> int:
     fine = settings.with_spacing(confirm) if confirm else None
     nominal, robust, table = robust_study(args.shape, args.max_area, settings, out, budget=args.budget,
                                           mode=args.robust, confirm_settings=fine, compare=compared or {},
-                                          **_search_options(args))
+                                          **_search_options(args, seeds))
     path = write_robust_report(args.shape, args.max_area, args.robust, nominal, robust, table, out / "robust.md",
                                invocation(), fine or settings)
     print(path.read_text().split("\n")[-2])
@@ -200,20 +195,18 @@ def _run_optimise(args: argparse.Namespace) -> int:
     from .search import best_plane, optimise
 
     compared = {name: compare_plane(name) for name in args.compare}  # refused before the search, not after it
-    if args.seed and args.pareto:
-        raise CLIError("--seed is for --max-area (a --pareto search seeds each budget with the smaller budgets' answers)")
-    _check_seeds(args)
+    seeds = _seeds(args)
     check_output_dir(args.out)
     if args.pareto:
         return _run_pareto(args)
     if args.soil_grid:
-        return _run_robust(args, compared)
+        return _run_robust(args, compared, seeds)
     settings = eval_settings(args)
     out = Path(args.out)
     spacing = settings.spacing
     confirm = args.confirm_mesh if args.confirm_mesh is not None else (round(0.7 * spacing, 3) if spacing else None)
     res = optimise(args.shape, args.max_area, settings, out, budget=args.budget, progress=True,
-                   confirm_mesh=confirm or None, **_search_options(args))
+                   confirm_mesh=confirm or None, **_search_options(args, seeds))
     if res.best and res.best.get("confirmed_at"):  # the answer and the presets at the mesh it holds at
         settings = settings.with_spacing(res.best["confirmed_at"])
     rows = [evaluate(Candidate(name, plane=plane), settings) for name, plane in compared.items()]

@@ -288,6 +288,7 @@ def optimise(
     settings.check_scorable()
     fam = family(shape)
     ints: tuple = tuple(integer_values) if integer_values else (fam.integer_values or (None,))
+    check_seeds(fam, max_area, ints, seeds, strategy)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     extra = {**({"strategy": strategy} if strategy != "local" else {}), **({"objective": objective} if objective else {})}
@@ -323,6 +324,21 @@ def _check_request(max_area: float, algorithm: str, budget: int, strategy: str) 
         raise UserInputError("--budget must be >= 1 evaluation")
     if strategy not in STRATEGIES:
         raise UserInputError(f"--strategy {strategy}: choose one of {', '.join(STRATEGIES)}")
+
+
+def check_seeds(fam: Family, max_area: float, ints: tuple, seeds: dict[str, GroundPlane] | None,
+                strategy: str = "global") -> None:
+    """Refuse, before any work, seeds the search could not use (they would be skipped silently):
+    a local search, or a design outside the family, its bounds or the budget."""
+    if not seeds:
+        return
+    if strategy != "global":
+        raise UserInputError("--seed needs --strategy global (the local search starts from the family's own start point)")
+    usable = {name for name, *_ in seeds_for(fam, max_area, ints, seeds)}
+    for name, plane in seeds.items():
+        if name not in usable:
+            raise UserInputError(f"--seed {name}: not a {fam.cls.kind} design within the bounds and the {max_area:g} m^2 "
+                                 f"budget ({plane.metal_area:.1f} m^2)")
 
 
 def seeds_for(fam: Family, max_area: float, ints: tuple, extra: dict[str, GroundPlane] | None = None

@@ -208,7 +208,7 @@ def test_seed_designs_are_checked_before_the_search_and_reach_it(tmp_path, capsy
     """--seed FILE.json: a design the search cannot use is refused by name before any solve; a
     usable one is handed to the search (and so scored first)."""
     from groundplane.cli import build_parser, main
-    from optimise.cli import _search_options
+    from optimise.cli import _search_options, _seeds
 
     cross = tmp_path / "cross.json"
     cross.write_text(json.dumps({"shape": "teeth", "side": 4.6, "teeth_per_side": 1, "tooth_base": 2.25,
@@ -219,5 +219,6 @@ def test_seed_designs_are_checked_before_the_search_and_reach_it(tmp_path, capsy
     assert "--seed is for --max-area" in capsys.readouterr().err
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
     argv = ["optimise", "--shape", "teeth", "--max-area", "200", "--seed", str(cross), "-o", str(tmp_path / "c")]
-    seeds = _search_options(build_parser(argv).parse_args(argv))["seeds"]
+    args = build_parser(argv).parse_args(argv)
+    seeds = _search_options(args, _seeds(args))["seeds"]
     assert list(seeds) == [str(cross)] and seeds[str(cross)].metal_area == pytest.approx(107.6, abs=0.1)

@@ -195,3 +195,18 @@ def test_history_lines_of_the_wrong_shape_are_evaluated_again(tmp_path, capsys):
                    strategy="local")
     assert calls2 == [] and res.best is not None and n > 0  # the good rows replayed, nothing solved again
     assert "line(s) are not history rows and are ignored" in capsys.readouterr().err
+
+
+def test_the_search_itself_refuses_a_seed_it_could_not_use(tmp_path):
+    """Seeds outside the family or the budget are refused by optimise(), not skipped silently."""
+    from groundplane.errors import UserInputError
+    from groundplane.shapes import Square
+
+    def ev(c, s):
+        raise AssertionError("nothing may be solved")
+    with pytest.raises(UserInputError, match="--seed big: not a square design within the bounds and the 50 m"):
+        optimise("square", 50.0, EvalSettings(), tmp_path, budget=4, evaluate_fn=ev, progress=False,
+                 seeds={"big": Square(10.0)})
+    with pytest.raises(UserInputError, match="--seed needs --strategy global"):
+        optimise("square", 500.0, EvalSettings(), tmp_path, budget=4, evaluate_fn=ev, progress=False,
+                 seeds={"big": Square(10.0)}, strategy="local")
