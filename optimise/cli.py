@@ -151,14 +151,13 @@ def _seeds(args: argparse.Namespace) -> dict:
     """The --seed designs, read once and refused (by search.check_seeds) before any solve."""
     from groundplane.shapes import from_file
 
-    from .search import check_seeds, family
+    from .search import check_seeds, family, integer_choices
 
     if args.seed and args.pareto:
         raise CLIError("--seed is for --max-area (a --pareto search seeds each budget with the smaller budgets' answers)")
     seeds = {f: from_file(f) for f in args.seed}
     fam = family(args.shape)
-    check_seeds(fam, args.max_area, tuple(args.integers) if args.integers else (fam.integer_values or (None,)),
-                seeds, args.strategy)
+    check_seeds(fam, args.max_area, integer_choices(fam, args.integers), seeds, args.strategy)
     return seeds
 
 

@@ -17,7 +17,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Iterable
 
 import numpy as np
 
@@ -284,11 +284,10 @@ def optimise(
     is not the plain FoM (e.g. the mean over soils), so a resume refuses another one. ``seeds``:
     more named designs the global search scores first (before the presets).
     Raises UserInputError for a family, budget or algorithm that cannot work."""
-    _check_request(max_area, algorithm, budget, strategy)
-    settings.check_scorable()
     fam = family(shape)
-    ints: tuple = tuple(integer_values) if integer_values else (fam.integer_values or (None,))
-    check_seeds(fam, max_area, ints, seeds, strategy)
+    ints = integer_choices(fam, integer_values)
+    _check_request(max_area, algorithm, budget, strategy, fam, ints, seeds)
+    settings.check_scorable()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     extra = {**({"strategy": strategy} if strategy != "local" else {}), **({"objective": objective} if objective else {})}
@@ -313,7 +312,14 @@ def optimise(
     return OptimiseResult(best, ev.hist.rows, out, confirmed)
 
 
-def _check_request(max_area: float, algorithm: str, budget: int, strategy: str) -> None:
+def integer_choices(fam: Family, integer_values: Iterable[int] | None) -> tuple:
+    """The values of the family's integer parameter a search tries (the given ones, else the
+    family's own; (None,) for a family without one)."""
+    return tuple(integer_values) if integer_values else (fam.integer_values or (None,))
+
+
+def _check_request(max_area: float, algorithm: str, budget: int, strategy: str, fam: Family, ints: tuple,
+                   seeds: dict[str, GroundPlane] | None) -> None:
     """Refuse, before any work, a search that cannot run."""
     if not (math.isfinite(max_area) and max_area > 0):
         raise UserInputError(f"--max-area must be a positive number of m^2, got {max_area}")
@@ -324,6 +330,7 @@ def _check_request(max_area: float, algorithm: str, budget: int, strategy: str) 
         raise UserInputError("--budget must be >= 1 evaluation")
     if strategy not in STRATEGIES:
         raise UserInputError(f"--strategy {strategy}: choose one of {', '.join(STRATEGIES)}")
+    check_seeds(fam, max_area, ints, seeds, strategy)
 
 
 def check_seeds(fam: Family, max_area: float, ints: tuple, seeds: dict[str, GroundPlane] | None,
