@@ -9,15 +9,91 @@ import numpy as np
 
 
 @numba.njit(cache=True, nogil=True)
-def grid_pair_values(table: np.ndarray, pairs: np.ndarray, ix: np.ndarray, iy: np.ndarray, wx: np.ndarray,
-                     wy: np.ndarray, level: np.ndarray, nx: int, ny: int) -> tuple[np.ndarray, np.ndarray]:
-    """For each (obs, src) triangle pair and each of its 3 x 3 point pairs, the grid's value of
-    the vector and scalar kernels: sum over the two 4 x 4 stencils of w_o w_s K[node_o - node_s]
-    (``table`` [n_lev, n_lev, 2, 2nx-1, 2ny-1] on grid offsets). The x and y stencils are
-    separable: their correlations cx, cy [7] weight a 7 x 7 window of offsets."""
+def _add_moments(out: np.ndarray, row: int, col: int, g: complex, xo: float, yo: float, xs: float,
+                 ys: float) -> None:
+    """Add one weighted kernel value to the six pair moments at ``out[row:row + 6, col]``:
+    S0, Sx, Sy (observation point), Srr = rho . rho', Sx', Sy' (source point); the order of
+    ``rwg._moments``."""
+    out[row, col] += g
+    out[row + 1, col] += g * xo
+    out[row + 2, col] += g * yo
+    out[row + 3, col] += g * (xo * xs + yo * ys)
+    out[row + 4, col] += g * xs
+    out[row + 5, col] += g * ys
+
+
+@numba.njit(cache=True, nogil=True)
+def rule_moments(po: np.ndarray, wo: np.ndarray, ps: np.ndarray, ws: np.ndarray, pairs: np.ndarray, k: float,
+                 direct: bool, image: bool) -> np.ndarray:
+    """The six moments of exp(-jkR)/R by the product of two point rules, for triangle pairs
+    (obs, src): points ``po`` [T, Qo, 3] and ``ps`` [T, Qs, 3] (each at its triangle's level),
+    weights ``wo``/``ws`` (area included). Rows 0-5 the direct kernel (if ``direct``), then
+    rows of the image kernel (source mirrored below z = 0, if ``image``): [6 or 12, P]. The
+    value at R ~ 0 is 0, as ``rwg._kernel``'s (a self pair's coincident points)."""
     n = pairs.shape[0]
-    out_a = np.empty((n, 3, 3), np.complex128)
-    out_q = np.empty((n, 3, 3), np.complex128)
+    out = np.zeros((6 * (int(direct) + int(image)), n), np.complex128)
+    img_row = 6 if direct else 0
+    for p in range(n):
+        o, s = pairs[p, 0], pairs[p, 1]
+        for i in range(po.shape[1]):
+            xo, yo, zo = po[o, i, 0], po[o, i, 1], po[o, i, 2]
+            for j in range(ps.shape[1]):
+                xs, ys, zs = ps[s, j, 0], ps[s, j, 1], ps[s, j, 2]
+                w = wo[o, i] * ws[s, j]
+                rho2 = (xo - xs) ** 2 + (yo - ys) ** 2
+                if direct:
+                    r = np.sqrt(rho2 + (zo - zs) ** 2)
+                    if r > 1e-9:
+                        _add_moments(out, 0, p, np.exp(-1j * k * r) / r * w, xo, yo, xs, ys)
+                if image:
+                    r = np.sqrt(rho2 + (zo + zs) ** 2)
+                    if r > 1e-9:
+                        _add_moments(out, img_row, p, np.exp(-1j * k * r) / r * w, xo, yo, xs, ys)
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def reflected_rule_moments(po: np.ndarray, wo: np.ndarray, ps: np.ndarray, ws: np.ndarray, pairs: np.ndarray,
+                           zetas: np.ndarray, tables: np.ndarray, step: float, sign: float,
+                           out_a: np.ndarray, out_q: np.ndarray) -> None:
+    """Add ``sign`` x the soil's reflected kernels by the product of two point rules (shapes
+    as :func:`rule_moments`): the six moments of S(R_TE) into ``out_a`` [6, P] and S0 of
+    S(R_q - K_q) into ``out_q`` [P]. The kernels are ``ReflectedKernels.lookup``'s: the table
+    of the nearest height sum ``zetas``, linear in rho on a grid of ``step``."""
+    n_rho = tables.shape[2]
+    for p in range(pairs.shape[0]):
+        o, s = pairs[p, 0], pairs[p, 1]
+        for i in range(po.shape[1]):
+            xo, yo, zo = po[o, i, 0], po[o, i, 1], po[o, i, 2]
+            for j in range(ps.shape[1]):
+                xs, ys, zs = ps[s, j, 0], ps[s, j, 1], ps[s, j, 2]
+                zeta = zo + zs
+                which = 0
+                for z in range(1, zetas.shape[0]):
+                    if zeta > 0.5 * (zetas[z - 1] + zetas[z]):
+                        which = z
+                x = np.sqrt((xo - xs) ** 2 + (yo - ys) ** 2) / step
+                at = min(int(x), n_rho - 2)
+                f = x - at
+                w = sign * wo[o, i] * ws[s, j]
+                a = tables[which, 0, at] * (1 - f) + tables[which, 0, at + 1] * f
+                q = tables[which, 1, at] * (1 - f) + tables[which, 1, at + 1] * f
+                _add_moments(out_a, 0, p, a * w, xo, yo, xs, ys)
+                out_q[p] += q * w
+
+
+@numba.njit(cache=True, nogil=True)
+def grid_pair_moments(table: np.ndarray, pairs: np.ndarray, ix: np.ndarray, iy: np.ndarray, wx: np.ndarray,
+                      wy: np.ndarray, level: np.ndarray, nx: int, ny: int, pts: np.ndarray,
+                      w: np.ndarray) -> np.ndarray:
+    """What the grid puts in for each (obs, src) triangle pair: the six moments [C, 6, P] of
+    each kernel channel of ``table`` [n_lev, n_lev, C, 2nx-1, 2ny-1] (on grid offsets) over
+    the pair's 3 x 3 point pairs (points ``pts`` [T, 3, 3], weights ``w`` [T, 3]). A point
+    pair's grid value is the sum over the two 4 x 4 stencils of w_o w_s K[node_o - node_s];
+    the stencils are separable, so their correlations cx, cy [7] weight a 7 x 7 window."""
+    n = pairs.shape[0]
+    n_ch = table.shape[2]
+    out = np.zeros((n_ch, 6, n), np.complex128)
     cx = np.empty(7)
     cy = np.empty(7)
     for p in range(n):
@@ -33,19 +109,42 @@ def grid_pair_values(table: np.ndarray, pairs: np.ndarray, ix: np.ndarray, iy: n
                         cy[a - b + 3] += wy[o, i, a] * wy[s, j, b]
                 bx = ix[o, i] - ix[s, j] + nx - 1 - 3
                 by = iy[o, i] - iy[s, j] + ny - 1 - 3
-                va = 0j
-                vq = 0j
-                for a in range(7):
-                    ra = 0j
-                    rq = 0j
-                    for b in range(7):
-                        ra += cy[b] * table[lo, ls, 0, bx + a, by + b]
-                        rq += cy[b] * table[lo, ls, 1, bx + a, by + b]
-                    va += cx[a] * ra
-                    vq += cx[a] * rq
-                out_a[p, i, j] = va
-                out_q[p, i, j] = vq
-    return out_a, out_q
+                ww = w[o, i] * w[s, j]
+                for c in range(n_ch):
+                    v = 0j
+                    for a in range(7):
+                        row = 0j
+                        for b in range(7):
+                            row += cy[b] * table[lo, ls, c, bx + a, by + b]
+                        v += cx[a] * row
+                    _add_moments(out[c], 0, p, v * ww, pts[o, i, 0], pts[o, i, 1], pts[s, j, 0], pts[s, j, 1])
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def scatter_values(data: np.ndarray, slot: np.ndarray, cc: np.ndarray, free_o: np.ndarray, free_s: np.ndarray,
+                   ma: np.ndarray, mq: np.ndarray, c_a: complex, c_q: complex) -> None:
+    """Add basis-pair values of triangle-pair moments into CSR ``data``: for each pair's (up
+    to) 3 x 3 basis pairs with ``slot`` >= 0, Z_mn += c_m c_n [c_a (Srr - v_n.So - v_m.Ss +
+    v_m.v_n S0) + c_q S0q] (``ma`` [6, P] vector moments, or an empty array; ``mq`` [P] scalar,
+    or empty): the dense fill's gather formula, for one list of pairs."""
+    vector = ma.shape[0] == 6
+    scalar = mq.shape[0] > 0
+    for p in range(slot.shape[0]):
+        for i in range(3):
+            for j in range(3):
+                at = slot[p, i, j]
+                if at < 0:
+                    continue
+                v = 0j
+                if vector:
+                    vmx, vmy = free_o[p, i, 0], free_o[p, i, 1]
+                    vnx, vny = free_s[p, j, 0], free_s[p, j, 1]
+                    v += c_a * (ma[3, p] - vnx * ma[1, p] - vny * ma[2, p] - vmx * ma[4, p] - vmy * ma[5, p]
+                                + (vmx * vnx + vmy * vny) * ma[0, p])
+                if scalar:
+                    v += c_q * mq[p]
+                data[at] += cc[p, i, j] * v
 
 
 @numba.njit(cache=True, nogil=True)

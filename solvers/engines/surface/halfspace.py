@@ -110,7 +110,10 @@ def spectral_nodes(k0: float, eps: complex, zeta: float, rho_max: float,
 
 
 def _spectral_end(k0: float, eps: complex, zeta: float) -> float:
-    return max(40.0 / zeta, 60.0 * k0, 4.0 * abs(np.sqrt(eps)) * k0)
+    """Where the spectral rule stops: 40 e-folds of exp(-krho zeta), past the soil's branch
+    point and pole (4 k_soil). (A floor of 60 k0 here cost the blade's height sums, 1-2 m,
+    2-5x the nodes for a tail below 1e-17 of the kernels.)"""
+    return max(40.0 / zeta, 4.0 * abs(np.sqrt(eps)) * k0)
 
 
 def tail_nodes(k0: float, eps: complex, zeta: float, k_from: float, rho_max: float,

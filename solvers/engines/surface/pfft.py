@@ -43,9 +43,6 @@ from .rwg import (
     MirrorSymmetry,
     Problem,
     Solution,
-    _block_moments,
-    _moments,
-    _near_corrections,
     _points,
     feed_signs,
     near_geometry,
@@ -113,6 +110,21 @@ class FastModel:
         if self._series is None or k > self._series.k_max:
             self._series = NearSeries(self.prob, row_triangles(self.prob, self.rows), k)
         return self._series
+
+    def assembly(self) -> "StaticAssembly":
+        """The near matrices' sparsity over the precorrection pairs and the series' direct and
+        image near pairs (in its order; a rebuilt series keeps it), built once."""
+        if self._assembly is None:
+            if self._series is None:
+                raise RuntimeError("FastModel.assembly: build the series first")
+            self._assembly = StaticAssembly(self.prob, self.rows, [self.pairs, self.near_pairs(False),
+                                                                   self.near_pairs(True)])
+        return self._assembly
+
+    def near_pairs(self, image: bool) -> np.ndarray:
+        """The series' direct (or image) near pairs, in its order (the assembly's lists 1, 2)."""
+        groups = [g[1] for g in self._series.groups if g[0] == image] if self._series is not None else []
+        return np.concatenate(groups) if groups else np.zeros((0, 2), int)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -208,38 +220,67 @@ def memory_estimate(prob: Problem, symmetry: MirrorSymmetry | None) -> int:
 _CACHE: dict[str, FastModel] = {}
 
 
-def fast_model(prob: Problem, symmetric: bool) -> FastModel:
-    """:func:`build_fast_model` for this design, reused across the frequencies a worker
-    process solves (keyed by the mesh's content; one design kept)."""
+def _model_key(prob: Problem, symmetric: bool) -> str:
+    """The geometry a fast model depends on: the mesh, the ground's kind (not the soil's
+    values: every soil of one design shares the model) and the near rule."""
     mesh = prob.mesh
-    key = hashlib.sha256(b"".join([mesh.nodes.tobytes(), mesh.tris.tobytes(), mesh.feed_edges.tobytes(),
-                                   repr((prob.ground, prob.near_factor, prob.soil, symmetric)).encode()])).hexdigest()
+    return hashlib.sha256(b"".join([mesh.nodes.tobytes(), mesh.tris.tobytes(), mesh.feed_edges.tobytes(),
+                                    repr((prob.ground, prob.near_factor, symmetric)).encode()])).hexdigest()
+
+
+def fast_model(prob: Problem, symmetric: bool) -> FastModel:
+    """:func:`build_fast_model` for this design, reused across the frequencies and soils a
+    worker process solves (keyed by the geometry; one design kept)."""
+    key = _model_key(prob, symmetric)
     if key not in _CACHE:
         _CACHE.clear()
-        symmetry = MirrorSymmetry.of(mesh, prob.rwg) if symmetric else None
+        symmetry = MirrorSymmetry.of(prob.mesh, prob.rwg) if symmetric else None
         _CACHE[key] = build_fast_model(prob, symmetry)
     return _CACHE[key]
 
 
 def problem_of(mesh, ground: str, near_factor: float, soil) -> Problem:
-    """The engine's :class:`Problem`, or the cached model's when the mesh is the same."""
+    """The engine's :class:`Problem` on ``soil``: the cached model's basis and near lists
+    (geometry only) when the mesh is the same, else built."""
+    import copy
+
     for model in _CACHE.values():
         p = model.prob
-        if (p.ground == ground and p.near_factor == near_factor and p.soil == soil
+        if (p.ground == ground and p.near_factor == near_factor
                 and np.array_equal(p.mesh.tris, mesh.tris) and np.array_equal(p.mesh.nodes, mesh.nodes)):
-            return p
+            if p.soil == soil:
+                return p
+            other = copy.copy(p)  # the same basis, coefficients and near lists on another soil
+            other.soil = soil
+            return other
     return Problem(mesh, rwg_basis(mesh), ground, near_factor, soil)
 
 
 # ------------------------------------------------------------------ per frequency
-def _grid_kernels(model: FastModel, k: float, weights, kernels) -> tuple[np.ndarray, np.ndarray]:
-    """FFTs of the vector and scalar kernels on grid offsets, [n_lev, n_lev, 2, Sx, Sy]
-    (observation level, source level), and the offset tables [n_lev, n_lev, 2, 2nx-1, 2ny-1]
-    used by the precorrection."""
-    import scipy.fft
-
+def _offset_tables(model: FastModel, k: float, image: bool) -> np.ndarray:
+    """The direct kernel exp(-jkR)/R (and, with ``image``, its image below z = 0) on grid
+    offsets, [n_lev, n_lev, 1 or 2, 2nx-1, 2ny-1] (observation level, source level)."""
     g = model.grid
-    sx, sy = model.shape
+    i = np.arange(-(g.nx - 1), g.nx)
+    j = np.arange(-(g.ny - 1), g.ny)
+    rho = g.h * np.hypot(i[:, None], j[None, :])
+    nl = len(g.levels)
+    table = np.empty((nl, nl, 2 if image else 1, len(i), len(j)), complex)
+    for lo, zo in enumerate(g.levels):
+        for ls, zs in enumerate(g.levels):
+            r = np.sqrt(rho ** 2 + (zo - zs) ** 2)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                table[lo, ls, 0] = np.where(r > 1e-9, np.exp(-1j * k * r) / r, 0.0)
+            if image:
+                ri = np.sqrt(rho ** 2 + (zo + zs) ** 2)
+                table[lo, ls, 1] = np.exp(-1j * k * ri) / ri
+    return table
+
+
+def _reflected_tables(model: FastModel, kernels) -> np.ndarray:
+    """The soil's smooth reflected kernels S(R_TE), S(R_q - K_q) on grid offsets,
+    [n_lev, n_lev, 2, 2nx-1, 2ny-1]."""
+    g = model.grid
     i = np.arange(-(g.nx - 1), g.nx)
     j = np.arange(-(g.ny - 1), g.ny)
     rho = g.h * np.hypot(i[:, None], j[None, :])
@@ -247,51 +288,58 @@ def _grid_kernels(model: FastModel, k: float, weights, kernels) -> tuple[np.ndar
     table = np.empty((nl, nl, 2, len(i), len(j)), complex)
     for lo, zo in enumerate(g.levels):
         for ls, zs in enumerate(g.levels):
-            r = np.sqrt(rho ** 2 + (zo - zs) ** 2)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                direct = np.where(r > 1e-9, np.exp(-1j * k * r) / r, 0.0)
-            ka, kq = direct, direct
-            if weights is not None:
-                ri = np.sqrt(rho ** 2 + (zo + zs) ** 2)
-                image = np.exp(-1j * k * ri) / ri
-                ka = ka + weights[0] * image
-                kq = kq + weights[1] * image
-                if kernels is not None:
-                    sa, sq = kernels.lookup(rho, np.full_like(rho, zo + zs))
-                    ka, kq = ka + sa, kq + sq
-            table[lo, ls, 0], table[lo, ls, 1] = ka, kq
-    # circulant embedding: offset d sits at index d mod S
-    circ = np.zeros((nl, nl, 2, sx, sy), complex)
-    ii, jj = i % sx, j % sy
+            table[lo, ls, 0], table[lo, ls, 1] = kernels.lookup(rho, np.full_like(rho, zo + zs))
+    return table
+
+
+def _spectra(model: FastModel, table: np.ndarray) -> np.ndarray:
+    """FFTs of offset tables [..., 2nx-1, 2ny-1] by circulant embedding (offset d sits at
+    index d mod S), zero-padded to the model's FFT size."""
+    import scipy.fft
+
+    g = model.grid
+    sx, sy = model.shape
+    circ = np.zeros(table.shape[:-2] + (sx, sy), complex)
+    ii, jj = np.arange(-(g.nx - 1), g.nx) % sx, np.arange(-(g.ny - 1), g.ny) % sy
     circ[..., ii[:, None], jj[None, :]] = table
-    return scipy.fft.fft2(circ, axes=(-2, -1), workers=1), table
+    return scipy.fft.fft2(circ, axes=(-2, -1), workers=1)
 
 
-def _grid_pair_values(model: FastModel, table: np.ndarray, pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """What the grid puts in for each point pair of triangle pairs: [P, 3, 3] for the vector
-    and scalar kernels. The stencils are separable, so each point pair sees a 7 x 7 window
-    of kernel offsets weighted by the correlation of its x stencils times that of its y."""
-    from ._compiled import grid_pair_values
+def grid_moments(model: FastModel, table: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    """What the grid puts in for triangle pairs: the six moments [C, 6, P] of each kernel
+    channel of ``table`` (offsets, as :func:`_offset_tables`) over their 3 x 3 point pairs."""
+    from ._compiled import grid_pair_moments
 
     g = model.grid
     ix, iy, wx, wy = model.stencils  # [T, 3], [T, 3, 4]
-    return grid_pair_values(np.ascontiguousarray(table), np.ascontiguousarray(pairs, dtype=np.int64),
-                            ix, iy, wx, wy, model.level.astype(np.int64), g.nx, g.ny)
-
-
-def _pair_moments(model: FastModel, pairs: np.ndarray, k: float, weights, kernels,
-                  grid_table: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(fill's 3-point moments - grid's) [6, P] and scalar [P] of triangle pairs, and the
-    fill's alone: what the precorrection adds and what the preconditioner holds."""
     pts, w = model.points
-    zt = model.prob.mesh.nodes[model.prob.mesh.tris[:, 0], 2]
-    o, s = pairs[:, 0], pairs[:, 1]
-    fill_a, fill_q = _block_moments(pts[o], w[o], pts[s], w[s], zt[s], k, weights, kernels)
-    ga, gq = _grid_pair_values(model, grid_table, pairs)
-    ww = w[o][:, :, None] * w[s][:, None, :]
-    grid_a = _moments(ga * ww, pts[o], pts[s])
-    grid_q = (gq * ww).sum(axis=(-1, -2))
-    return fill_a, fill_q, grid_a, grid_q
+    return grid_pair_moments(np.ascontiguousarray(table), np.ascontiguousarray(pairs, dtype=np.int64), ix, iy, wx,
+                             wy, model.level.astype(np.int64), g.nx, g.ny, pts, w)
+
+
+def rule_moments(mesh, pairs: np.ndarray, k: float, rule, direct: bool = True, image: bool = False) -> np.ndarray:
+    """The fill's product-rule moments of exp(-jkR)/R (direct rows 0-5, then image) for
+    triangle pairs, both triangles on ``rule`` (``rwg._product_rule``'s sums, compiled)."""
+    from ._compiled import rule_moments as compiled
+
+    p, w = _points(mesh, rule)
+    return compiled(p, w, p, w, np.ascontiguousarray(pairs, dtype=np.int64), k, direct, image)
+
+
+def reflected_moments(mesh, pairs: np.ndarray, kernels, near: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The soil's reflected kernels over triangle pairs: (six moments of S(R_TE) [6, P], S0 of
+    S(R_q - K_q) [P]) by the fill's 3 x 3 points, or (``near``) the near pairs' correction,
+    7 x 7 minus 3 x 3 (``rwg._reflected_near``'s)."""
+    from ._compiled import reflected_rule_moments
+
+    out_a = np.zeros((6, len(pairs)), complex)
+    out_q = np.zeros(len(pairs), complex)
+    pairs = np.ascontiguousarray(pairs, dtype=np.int64)
+    args = (kernels.zetas, np.ascontiguousarray(kernels.tables), kernels.step)
+    for rule, sign in (((_Q7, 1.0), (_Q3, -1.0)) if near else ((_Q3, 1.0),)):
+        p, w = _points(mesh, rule)
+        reflected_rule_moments(p, w, p, w, pairs, *args, sign, out_a, out_q)
+    return out_a, out_q
 
 
 class _BasisAssembler:
@@ -323,65 +371,98 @@ class _BasisAssembler:
 
 class StaticAssembly:
     """The near matrices' sparsity, built once per design: each (triangle pair, basis pair)
-    entry's place in a CSR matrix, so each frequency only computes values (in the pairs'
-    own [pair, 3, 3] layout, without gathers) and sums them into place (``np.bincount``)."""
+    entry's place in a CSR matrix, so each frequency only computes values and adds them in
+    place (:func:`_compiled.scatter_values`). Lists: 0 the precorrection pairs, 1 the direct
+    near pairs, 2 the image near pairs (the series' order)."""
 
     def __init__(self, prob: Problem, rows: np.ndarray, pair_lists: list[np.ndarray]) -> None:
         a = _BasisAssembler(prob, rows)
         self.lists = []
-        lins = []
+        lins, keeps = [], []
         for pairs in pair_lists:
             o, s = pairs[:, 0], pairs[:, 1]
             fo, fs = a.fn[o], a.fn[s]
             r = np.where(fo >= 0, a.row_of[np.maximum(fo, 0)], -1)[:, :, None] + np.zeros((1, 1, 3), int)
             keep = (r >= 0) & (fs[:, None, :] >= 0)
             cc = a.coef[o][:, :, None] * a.coef[s][:, None, :] * keep  # 0 where no entry
-            self.lists.append((len(pairs), keep, cc, a.free[o][:, :, None, :], a.free[s][:, None, :, :]))
+            self.lists.append([cc, np.ascontiguousarray(a.free[o]), np.ascontiguousarray(a.free[s])])
+            keeps.append(keep)
             lins.append(r[keep].astype(np.int64) * a.shape[1] + np.broadcast_to(fs[:, None, :], keep.shape)[keep])
         uniq, slot = np.unique(np.concatenate(lins), return_inverse=True)
         bounds = np.cumsum([0] + [len(x) for x in lins])
-        self.slots = [slot[bounds[i]:bounds[i + 1]] for i in range(len(lins))]
-        self.n_pairs = sum(x[0] for x in self.lists)
+        for i, keep in enumerate(keeps):
+            full = -np.ones(keep.shape, np.int64)  # [P, 3, 3]: the entry's place in the CSR data, -1 for none
+            full[keep] = slot[bounds[i]:bounds[i + 1]]
+            self.lists[i].insert(0, full)
+        self.sizes = [len(p) for p in pair_lists]
         self.shape = a.shape
+        self.nnz = len(uniq)
         self.indices = (uniq % a.shape[1]).astype(np.int32)
         self.indptr = np.searchsorted(uniq // a.shape[1], np.arange(a.shape[0] + 1)).astype(np.int32)
 
-    def values(self, which: int, ma: np.ndarray, mq: np.ndarray, c_a: complex, c_phi: complex) -> np.ndarray:
-        """CSR data of list ``which``'s triangle-pair moments [6, P] and scalar moments [P]."""
-        _, keep, cc, vm, vn = self.lists[which]
-        s0, sx, sy, srr, sxs, sys_ = (m[:, None, None] for m in ma)
-        val = cc * (c_a * (srr - vn[..., 0] * sx - vn[..., 1] * sy - vm[..., 0] * sxs - vm[..., 1] * sys_
-                           + (vm * vn).sum(-1) * s0) + 4 * c_phi * mq[:, None, None])
-        val = val[keep]
-        n = len(self.indices)
-        return np.bincount(self.slots[which], val.real, n) + 1j * np.bincount(self.slots[which], val.imag, n)
+    def add(self, data: np.ndarray, which: int, ma: np.ndarray | None, mq: np.ndarray | None, c_a: complex,
+            c_q: complex) -> None:
+        """Add list ``which``'s basis-pair values of triangle-pair moments (vector ``ma``
+        [6, P] times ``c_a``, scalar ``mq`` [P] times ``c_q``; either may be None) into ``data``."""
+        from ._compiled import scatter_values
+
+        none = np.zeros(0, complex)
+        slot, cc, free_o, free_s = self.lists[which]
+        scatter_values(data, slot, cc, free_o, free_s, none.reshape(0, 0) if ma is None else np.ascontiguousarray(ma),
+                       none if mq is None else np.ascontiguousarray(mq), complex(c_a), complex(c_q))
 
     def matrix(self, data: np.ndarray) -> sp.csr_matrix:
         return sp.csr_matrix((data, self.indices, self.indptr), shape=self.shape)
 
 
-def near_matrices(model: FastModel, freq_hz: float, grid_table: np.ndarray, weights, kernels,
-                  chunk: int = 5000) -> tuple[sp.csr_matrix, sp.csr_matrix]:
-    """(precorrection, near matrix) [rows x N]: what the grid matvec needs added, and the
-    fill's own near interactions (the preconditioner)."""
-    prob = model.prob
-    k = 2 * np.pi * freq_hz / C0
-    omega = 2 * np.pi * freq_hz
-    c_a = 1j * omega * MU0 / (4 * np.pi)
-    c_phi = -1j / (4 * np.pi * omega * EPS0)
-    fill_a, fill_q, grid_a, grid_q = [], [], [], []
-    for start in range(0, len(model.pairs), chunk):
-        fa, fq, ga, gq = _pair_moments(model, model.pairs[start:start + chunk], k, weights, kernels, grid_table)
-        fill_a.append(fa), fill_q.append(fq), grid_a.append(ga), grid_q.append(gq)
-    cpairs, corr, corr_q = _near_corrections(prob, k, None, weights, kernels, groups=model.series(k).moments(k))
-    if model._assembly is None or model._assembly.n_pairs != len(model.pairs) + len(cpairs):
-        model._assembly = StaticAssembly(prob, model.rows, [model.pairs, cpairs])
-    asm = model._assembly
-    fa, fq = np.concatenate(fill_a, axis=1), np.concatenate(fill_q)
-    ga, gq = np.concatenate(grid_a, axis=1), np.concatenate(grid_q)
-    near = asm.values(0, fa, fq, c_a, c_phi) + asm.values(1, corr, corr_q, c_a, c_phi)
-    grid = asm.values(0, ga, gq, c_a, c_phi)
-    return asm.matrix(near - grid), asm.matrix(near)
+class FrequencyTerms:
+    """The part of one frequency's fast operator that does not depend on the soil: the direct
+    kernel's and its image's grid spectra and their near and grid values in the CSR layout of
+    the near matrices (each kernel apart, so every soil of a design, or PEC, weights and adds
+    them: :class:`FastOperator`). Over soil the image enters the scalar potential only."""
+
+    def __init__(self, model: FastModel, freq_hz: float) -> None:
+        prob = model.prob
+        mesh = prob.mesh
+        self.freq_hz = freq_hz
+        self.k = k = 2 * np.pi * freq_hz / C0
+        omega = 2 * np.pi * freq_hz
+        self.c_a = c_a = 1j * omega * MU0 / (4 * np.pi)
+        self.c_phi = c_phi = -1j / (4 * np.pi * omega * EPS0)
+        c_q = 4 * c_phi  # div f = 2c on each triangle
+        imaged = prob.ground != "free"
+        vector_image = prob.ground == "pec"  # over soil the vector potential's image is the tabulated S(R_TE)
+        table = _offset_tables(model, k, imaged)
+        self.spectra = _spectra(model, table)  # [nl, nl, 1 or 2, sx, sy]
+        grid = grid_moments(model, table, model.pairs)  # [1 or 2, 6, P]
+        fill = rule_moments(mesh, model.pairs, k, _Q3, True, imaged)  # [6 or 12, P]
+        groups = list(model.series(k).moments(k))
+        asm = model.assembly()
+        nnz = asm.nnz
+        self.near = {"direct": np.zeros(nnz, complex)}
+        self.grid = {"direct": np.zeros(nnz, complex)}
+        asm.add(self.near["direct"], 0, fill[:6], fill[0], c_a, c_q)
+        asm.add(self.grid["direct"], 0, grid[0], grid[0, 0], c_a, c_q)
+        corr = {img: [acc - rule_moments(mesh, pairs, k, _Q3, not img, img) for i, pairs, acc in groups if i == img]
+                for img in (False, True)}
+        asm.add(self.near["direct"], 1, _joined(corr[False]), _joined(corr[False])[0], c_a, c_q)
+        if imaged:
+            image_corr = _joined(corr[True])
+            self.near["image_q"] = np.zeros(nnz, complex)
+            self.grid["image_q"] = np.zeros(nnz, complex)
+            asm.add(self.near["image_q"], 0, None, fill[6], 0.0, c_q)
+            asm.add(self.near["image_q"], 2, None, image_corr[0], 0.0, c_q)
+            asm.add(self.grid["image_q"], 0, None, grid[1, 0], 0.0, c_q)
+            if vector_image:
+                self.near["image_a"] = np.zeros(nnz, complex)
+                self.grid["image_a"] = np.zeros(nnz, complex)
+                asm.add(self.near["image_a"], 0, fill[6:], None, c_a, 0.0)
+                asm.add(self.near["image_a"], 2, image_corr, None, c_a, 0.0)
+                asm.add(self.grid["image_a"], 0, grid[1], None, c_a, 0.0)
+
+
+def _joined(parts: list[np.ndarray]) -> np.ndarray:
+    return np.concatenate(parts, axis=1) if parts else np.zeros((6, 0), complex)
 
 
 SERIES_TOL = 1e-13  # last term of the smooth part's power series, relative to 1
@@ -470,20 +551,46 @@ class NearSeries:
 
 
 class FastOperator:
-    """Z x at one frequency (the rows of the solved class) without forming Z."""
+    """Z x at one frequency on one ground (the rows of the solved class) without forming Z:
+    the frequency's soil-independent :class:`FrequencyTerms` weighted for the ground (the image
+    reversed over PEC, the charge image K_q over soil) plus, over soil, the tabulated reflected
+    kernels of ``soil`` (default: the problem's)."""
 
-    def __init__(self, model: FastModel, freq_hz: float) -> None:
+    def __init__(self, model: FastModel, freq_hz: float, soil: tuple[float, float] | None = None,
+                 terms: FrequencyTerms | None = None) -> None:
         prob = model.prob
         self.model = model
-        self.k = 2 * np.pi * freq_hz / C0
-        omega = 2 * np.pi * freq_hz
-        self.c_a = 1j * omega * MU0 / (4 * np.pi)
-        self.c_phi = -1j / (4 * np.pi * omega * EPS0)
-        g = model.grid
-        reach = 8 * g.h  # grid offsets reach 5 cells per axis past the metal
-        weights, kernels = prob.image_weights(freq_hz), prob.reflected_kernels(freq_hz, reach)
-        self.kernel_fft, table = _grid_kernels(model, self.k, weights, kernels)
-        self.pre, self.near = near_matrices(model, freq_hz, table, weights, kernels)
+        terms = terms if terms is not None and terms.freq_hz == freq_hz else FrequencyTerms(model, freq_hz)
+        self.k, self.c_a, self.c_phi = terms.k, terms.c_a, terms.c_phi
+        soil = prob.soil if soil is None else soil
+        near, grid = terms.near["direct"].copy(), terms.grid["direct"].copy()
+        spectra = terms.spectra
+        kernel_fft = np.repeat(spectra[:, :, :1], 2, axis=2)  # [nl, nl, 2 (vector, scalar), sx, sy]
+        weights = prob.image_weights(freq_hz, soil)
+        if weights is not None:
+            wa, wq = weights
+            near += wq * terms.near["image_q"]
+            grid += wq * terms.grid["image_q"]
+            kernel_fft[:, :, 1] += wq * spectra[:, :, 1]
+            if wa != 0:
+                near += wa * terms.near["image_a"]
+                grid += wa * terms.grid["image_a"]
+                kernel_fft[:, :, 0] += wa * spectra[:, :, 1]
+        if prob.ground == "soil":
+            g = model.grid
+            kernels = prob.reflected_kernels(freq_hz, 8 * g.h, soil)  # grid offsets reach 5 cells past the metal
+            table = _reflected_tables(model, kernels)
+            kernel_fft += _spectra(model, table)
+            asm, mesh, c_q = model.assembly(), prob.mesh, 4 * self.c_phi
+            gm = grid_moments(model, table, model.pairs)
+            asm.add(grid, 0, gm[0], gm[1, 0], self.c_a, c_q)
+            fa, fq = reflected_moments(mesh, model.pairs, kernels, near=False)
+            asm.add(near, 0, fa, fq, self.c_a, c_q)
+            ca, cq = reflected_moments(mesh, model.near_pairs(True), kernels, near=True)
+            asm.add(near, 2, ca, cq, self.c_a, c_q)
+        self.kernel_fft = kernel_fft
+        asm = model.assembly()
+        self.pre, self.near = asm.matrix(near - grid), asm.matrix(near)
         self.c1t = prob.c1.T.tocsr()
         self.cvt = [c.T.tocsr() for c in prob.cv]
         # testing: rows of C1, Cx, Cy for the solved rows
@@ -531,6 +638,19 @@ class FastStats:
     mirrored: bool  # solved in the mirror class (MirrorSymmetry): the currents have its symmetry
 
 
+_TERMS: dict[tuple[int, float], FrequencyTerms] = {}
+
+
+def frequency_terms(model: FastModel, freq_hz: float) -> FrequencyTerms:
+    """The model's soil-independent terms at ``freq_hz``, kept for the next solve at the same
+    frequency in this process (the other soils of a scenario set; one frequency kept)."""
+    key = (id(model), float(freq_hz))
+    if key not in _TERMS:
+        _TERMS.clear()
+        _TERMS[key] = FrequencyTerms(model, freq_hz)
+    return _TERMS[key]
+
+
 def solve_fast(prob: Problem, freq_hz: float, symmetric: bool) -> tuple[Solution, FastStats]:
     """Currents for a 1 V delta gap, by GMRES on the pFFT operator (see the module doc)."""
     import scipy.sparse.linalg as spla
@@ -538,7 +658,7 @@ def solve_fast(prob: Problem, freq_hz: float, symmetric: bool) -> tuple[Solution
     if len(prob.rwg.feed) == 0:
         raise ValueError("surface engine: the mesh has no feed edges")
     model = fast_model(prob, symmetric)
-    op = FastOperator(model, freq_hz)
+    op = FastOperator(model, freq_hz, prob.soil, frequency_terms(model, freq_hz))
     sign = feed_signs(prob)
     v = np.zeros(prob.n, dtype=complex)
     v[prob.rwg.feed] = sign * prob.rwg.length[prob.rwg.feed] * prob.mesh.feed_volts

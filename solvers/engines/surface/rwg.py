@@ -302,26 +302,31 @@ class Problem:
     def n(self) -> int:
         return self.rwg.n
 
-    def image_weights(self, freq_hz: float) -> tuple[float | complex, float | complex] | None:
+    def image_weights(self, freq_hz: float, soil: tuple[float, float] | None = None
+                      ) -> tuple[float | complex, float | complex] | None:
         """Weights (vector, scalar potential) of the image kernel exp(-jkR')/R': the
-        reversed current over PEC (-1, -1); over soil only the quasi-static charge image
-        (0, K_q), the rest being the tabulated reflected kernels; None in free space."""
+        reversed current over PEC (-1, -1); over soil (``soil``, default the problem's) only
+        the quasi-static charge image (0, K_q), the rest being the tabulated reflected
+        kernels; None in free space."""
         if self.ground == "pec":
             return -1.0, -1.0
         if self.ground == "soil":
-            return 0.0, charge_image(soil_permittivity(*self.soil, freq_hz))
+            return 0.0, charge_image(soil_permittivity(*(soil or self.soil), freq_hz))
         return None
 
-    def reflected_kernels(self, freq_hz: float, reach: float = 0.0) -> ReflectedKernels | None:
-        """The soil's smooth reflected kernels for this mesh's height sums, or None; tabulated
-        to the mesh's diagonal plus ``reach`` (m; the fast solve's grid extends past the metal)."""
+    def reflected_kernels(self, freq_hz: float, reach: float = 0.0,
+                          soil: tuple[float, float] | None = None) -> ReflectedKernels | None:
+        """The soil's (``soil``, default the problem's) smooth reflected kernels for this mesh's
+        height sums, or None; tabulated to the mesh's diagonal plus ``reach`` (m; the fast
+        solve's grid extends past the metal)."""
         if self.ground != "soil":
             return None
+        soil = soil or self.soil
         levels = np.unique(np.round(self.mesh.nodes[:, 2], 9))
         zetas = (levels[:, None] + levels[None, :]).ravel()
         xy = self.mesh.nodes[:, :2]
         rho_max = float(np.hypot(*(xy.max(axis=0) - xy.min(axis=0)))) + 0.1 + reach
-        return ReflectedKernels.build(freq_hz, *self.soil, zetas, rho_max)
+        return ReflectedKernels.build(freq_hz, *soil, zetas, rho_max)
 
 
 def _subdivided(rule: tuple[np.ndarray, np.ndarray], level: int) -> tuple[np.ndarray, np.ndarray]:

@@ -123,9 +123,12 @@ def test_far_field_from_the_first_quadrant_is_the_whole_far_field():
     assert np.allclose(quarter, full, rtol=1e-10)
 
 
-def test_grid_pair_values_are_the_two_stencils_summed_over_the_kernel_table():
-    """The compiled precorrection loop against its definition: sum over the observation and
-    source points' 4 x 4 stencils of w_o w_s K[node_o - node_s], node by node."""
+def test_grid_moments_are_the_two_stencils_summed_over_the_kernel_table():
+    """The compiled precorrection loop against its definition: each point pair's grid value is
+    the sum over the observation and source points' 4 x 4 stencils of w_o w_s K[node_o - node_s],
+    node by node, and the pair's moments are those values' (``rwg._moments``)."""
+    from solvers.engines.surface.rwg import _moments
+
     prob = _problem("soil")
     model = pfft.fast_model(prob, True)
     g = model.grid
@@ -133,21 +136,39 @@ def test_grid_pair_values_are_the_two_stencils_summed_over_the_kernel_table():
     nl = len(g.levels)
     table = rng.normal(size=(nl, nl, 2, 2 * g.nx - 1, 2 * g.ny - 1)) * (1 + 1j)
     pairs = model.pairs[rng.choice(len(model.pairs), 40, replace=False)]
-    va, vq = pfft._grid_pair_values(model, table, pairs)
+    got = pfft.grid_moments(model, table, pairs)  # [2, 6, 40]
     ix, iy, wx, wy = model.stencils
+    pts, w = model.points
     for p, (o, s) in enumerate(pairs):
+        want = np.zeros((2, 3, 3), complex)
         for i in range(3):
             for j in range(3):
-                want = np.zeros(2, complex)
                 for a in range(4):
                     for b in range(4):
                         for c in range(4):
                             for d in range(4):
                                 dx = ix[o, i] + a - ix[s, j] - c + g.nx - 1
                                 dy = iy[o, i] + b - iy[s, j] - d + g.ny - 1
-                                w = wx[o, i, a] * wy[o, i, b] * wx[s, j, c] * wy[s, j, d]
-                                want += w * table[model.level[o], model.level[s], :, dx, dy]
-                assert np.allclose([va[p, i, j], vq[p, i, j]], want, rtol=1e-12, atol=0)
+                                ws = wx[o, i, a] * wy[o, i, b] * wx[s, j, c] * wy[s, j, d]
+                                want[:, i, j] += ws * table[model.level[o], model.level[s], :, dx, dy]
+        for ch in range(2):
+            m = _moments(want[ch] * w[o][:, None] * w[s][None, :], pts[o], pts[s])
+            assert np.allclose(got[ch, :, p], m, rtol=1e-12, atol=1e-14 * np.abs(m).max())
+
+
+def test_fast_operator_on_another_soil_is_that_soils_operator():
+    """One model and one frequency's soil-independent terms serve every soil: the operator
+    built for a second soil from them is the one built from scratch on that soil."""
+    prob = _problem("soil")
+    model = pfft.build_fast_model(prob, None)
+    terms = pfft.FrequencyTerms(model, 70e6)
+    other = (5.0, 0.005)
+    shared = pfft.FastOperator(model, 70e6, other, terms)
+    fresh_prob = Problem(prob.mesh, prob.rwg, "soil", prob.near_factor, other)
+    fresh = pfft.FastOperator(pfft.build_fast_model(fresh_prob, None), 70e6)
+    x = np.random.default_rng(4).normal(size=prob.n) + 0j
+    assert np.allclose(shared.matvec(x), fresh.matvec(x), rtol=1e-12, atol=1e-12 * np.abs(fresh.matvec(x)).max())
+    assert abs(shared.near - fresh.near).max() <= 1e-12 * abs(fresh.near).max()
 
 
 def test_fast_solve_of_an_asymmetric_plane_gives_the_dense_beam():
