@@ -1,89 +1,215 @@
-"""Surface engine: the fast solve (precorrected FFT + GMRES) against the dense reference, in
-one process, on the same designs and frequencies.
+"""Surface engine speed: the fast solve of today's code against a baseline, on the same designs
+and frequencies, each solve in a child process of this one run, cold (a fresh cache folder).
 
-    .venv/bin/python benchmarks/bench_surface.py [--cases square-10@0.5 sawtooth-20-16@0.5]
-        [--freqs 55:97:2] [--workers 2] [--json out.json]
+    .venv/bin/python benchmarks/bench_surface.py [--cases sawtooth-20-16@0.5 CROSS.json@0.5 ...]
+        [--freqs 55:97:1] [--workers 2] [--against REV|dense] [--soils CASE@SPACING]
+        [--soil-freqs 55:97:2] [--json out.json]
 
-Each case (a preset at a mesh spacing, the sheet 5 mm above MRO soil) is solved through the
-engine (``SurfaceSolver``, no cache) with ``--method dense`` (the baseline) and then with
-``--method fast``. Printed per case: unknowns, the mean time per frequency of each (the fast
-one's per-design set-up, paid once per worker process, is amortised over the frequencies and
-also shown on its own), their ratio; the largest over frequencies of the rms gain difference
-above 10 deg elevation; and the FoM of each (every LST, and in the paper's 2 h LST bins) with
-their difference. Never fails on a time; the machine is noisy, so read the ratio.
+``--against REV`` (default: the commit before the shared-terms work) solves each case with the
+code of that git revision (a detached worktree beside this checkout, on ``PYTHONPATH``), and
+``--against dense`` with today's code and ``--method dense`` (the reference). Printed per case:
+unknowns, the wall time of each and their ratio, the first frequency in a worker (the per-design
+build) and the mean of the rest, the largest over frequencies of the solid-angle-weighted rms
+gain difference above 10 deg elevation, the FoM of each (every LST and in 2 h LST bins), GMRES
+iterations and the process tree's peak memory (polled every 0.2 s).
+
+``--soils CASE@SPACING``: one design on the five soils of the ``soil`` scenario set at the
+search level (``--soil-freqs``): today's code on one soil, then on all five together
+(``solve_many``) with the Sommerfeld tables cold and again warm (kept on disk by the first
+run, as every later design of a search finds them), and the baseline's five one by one. Never
+fails on a time; the machine is noisy, so read the ratios.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import subprocess
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
-from groundplane.design import Design, Soil
-from groundplane.fom import FomSettings, figure_of_merit
-from groundplane.options import parse_freqs
-from groundplane.shapes import PRESETS
-from solvers.engines.surface import SurfaceSettings, SurfaceSolver
+ROOT = Path(__file__).resolve().parents[1]
+BASELINE_REV = "2af09dd"  # main before the shared-terms fast solve (2026-12-02)
+SOILS = [(3.5, 0.02), (2.5, 0.005), (2.5, 0.05), (5.0, 0.005), (5.0, 0.05)]
 
 
-def solve(preset: str, spacing: float, method: str, freqs: np.ndarray, workers: int):
-    settings = SurfaceSettings(spacing=spacing, method=method)
+def child(spec: dict) -> None:
+    """Run in a child process: solve ``spec``'s design(s) with the code on sys.path, write the
+    beams and the timings."""
+    from groundplane.design import Design, Soil
+    from groundplane.shapes import PRESETS, from_file
+    from solvers.engines.surface import SurfaceSettings, SurfaceSolver
+
+    name = spec["design"]
+    plane = from_file(name) if name.endswith(".json") else PRESETS[name]
+    solver = SurfaceSolver(SurfaceSettings(spacing=spec["spacing"], method=spec["method"]), workers=spec["workers"],
+                           use_cache=False)
+    designs = [Design(plane, Soil(*s)) for s in spec["soils"]]
     t0 = time.perf_counter()
-    beam = SurfaceSolver(settings, workers=workers, use_cache=False).solve(Design(PRESETS[preset], Soil()), freqs)
-    return beam, time.perf_counter() - t0
+    if spec["together"]:
+        beams = solver.solve_many(designs, spec["freqs"])
+    else:
+        beams = [solver.solve(d, spec["freqs"]) for d in designs]
+    wall = time.perf_counter() - t0
+    for i, b in enumerate(beams):
+        b.save(Path(spec["out"]) / f"beam{i}.npz")
+    (Path(spec["out"]) / "timing.json").write_text(json.dumps({"wall_s": wall}))
+
+
+def run_child(spec: dict, code_root: Path, cache: Path) -> dict:
+    """Run :func:`child` with the code at ``code_root``; its wall time, peak memory and beams."""
+    import psutil
+
+    from groundplane.beam import Beam
+
+    out = Path(tempfile.mkdtemp(prefix="bench-surface-"))
+    spec = {**spec, "out": str(out)}
+    env = {**os.environ, "PYTHONPATH": str(code_root), "GROUNDPLANE_CACHE": str(cache)}
+    proc = subprocess.Popen([sys.executable, __file__, "--child", json.dumps(spec)], env=env, cwd=code_root)
+    peak = 0
+    parent = psutil.Process(proc.pid)
+    while proc.poll() is None:
+        try:
+            tree = [parent, *parent.children(recursive=True)]
+            peak = max(peak, sum(p.memory_info().rss for p in tree if p.is_running()))
+        except psutil.Error:
+            pass
+        time.sleep(0.2)
+    if proc.returncode:
+        raise SystemExit(f"bench_surface: the child solve failed ({spec['design']}, {code_root})")
+    timing = json.loads((out / "timing.json").read_text())
+    beams = [Beam.load(out / f"beam{i}.npz") for i in range(len(spec["soils"]))]
+    return {"wall_s": timing["wall_s"], "peak_gib": peak / 2**30, "beams": beams}
+
+
+def baseline_root(rev: str) -> Path:
+    """A detached worktree of ``rev`` beside this checkout (made once, reused)."""
+    path = Path(tempfile.gettempdir()) / f"groundplane-baseline-{rev}"
+    if not path.exists():
+        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(path), rev], check=True,
+                       capture_output=True)
+    return path
+
+
+def rms_db(a, b) -> np.ndarray:
+    """Per frequency, the solid-angle-weighted rms of B - A in dB above 10 deg elevation."""
+    from groundplane.compare import direction_differences
+
+    return direction_differences(a, b, 10.0)["rms_db"]
 
 
 def foms(beam) -> tuple[float, float]:
+    from groundplane.fom import FomSettings, figure_of_merit
+
     res = figure_of_merit(beam, FomSettings(lst_bin_hours=0.0))
     return res.lst_averaged_fom_mk, res.in_lst_bins(2.0).lst_averaged_fom_mk
 
 
-def run(case: str, freqs: np.ndarray, workers: int) -> dict:
-    preset, spacing = case.split("@")
-    dense, t_dense = solve(preset, float(spacing), "dense", freqs, workers)
-    fast, t_fast = solve(preset, float(spacing), "fast", freqs, workers)
-    up = fast.theta_deg <= 80.0  # above 10 deg elevation
-    rms = np.sqrt(np.mean((10 * np.log10(fast.gain[:, up] / dense.gain[:, up])) ** 2, axis=(1, 2)))
-    sec_d = np.asarray(dense.meta["seconds_per_frequency"])
-    sec_f = np.asarray(fast.meta["seconds_per_frequency"])
-    # a worker's first frequency builds the design's series, assembly and grid
-    first = np.sort(sec_f)[-min(workers or 1, len(sec_f)):]
-    (fd, fd2), (ff, ff2) = foms(dense), foms(fast)
-    row = {"case": case, "unknowns": fast.meta["n_unknowns"], "freqs": len(freqs),
-           "dense_s_per_freq": float(sec_d.mean()), "fast_s_per_freq": float(sec_f.mean()),
-           "fast_first_s": float(first.mean()), "ratio": float(sec_d.mean() / sec_f.mean()),
-           "wall_dense_s": t_dense, "wall_fast_s": t_fast,
-           "gain_rms_db_max": float(rms.max()), "fom_dense_mk": fd, "fom_fast_mk": ff,
-           "fom_2h_dense_mk": fd2, "fom_2h_fast_mk": ff2,
-           "fom_diff_pct": 100 * (ff / fd - 1), "fom_2h_diff_pct": 100 * (ff2 / fd2 - 1),
-           "gmres_iterations": [int(x) for x in fast.meta["gmres_iterations"]]}
-    print(f"| {case} | {row['unknowns']} | {row['dense_s_per_freq']:.1f} | {row['fast_s_per_freq']:.1f} "
-          f"(first {row['fast_first_s']:.1f}) | {row['ratio']:.1f}x | {row['gain_rms_db_max']:.1e} | "
-          f"{fd:.1f} / {ff:.1f} ({row['fom_diff_pct']:+.2f} %) | {fd2:.1f} / {ff2:.1f} ({row['fom_2h_diff_pct']:+.2f} %) "
-          f"| {min(row['gmres_iterations'])}-{max(row['gmres_iterations'])} |", flush=True)
+def split_times(beam, workers: int) -> tuple[float, float]:
+    """(mean first frequency in a worker, mean of the rest) from the beam's own timings."""
+    sec = np.sort(np.asarray(beam.meta["seconds_per_frequency"]))
+    first = sec[-min(max(workers, 1), len(sec)):]
+    rest = sec[:-len(first)] if len(sec) > len(first) else first
+    return float(first.mean()), float(rest.mean())
+
+
+def case(text: str) -> tuple[str, float]:
+    name, spacing = text.rsplit("@", 1)
+    return name, float(spacing)
+
+
+def compare_case(text: str, freqs: list[float], workers: int, against: str) -> dict:
+    name, spacing = case(text)
+    spec = {"design": name, "spacing": spacing, "freqs": freqs, "workers": workers, "soils": [SOILS[0]],
+            "together": False, "method": "fast"}
+    with tempfile.TemporaryDirectory() as c1, tempfile.TemporaryDirectory() as c2:
+        if against == "dense":
+            base = run_child({**spec, "method": "dense"}, ROOT, Path(c1))
+        else:
+            base = run_child(spec, baseline_root(against), Path(c1))
+        now = run_child(spec, ROOT, Path(c2))
+    a, b = base["beams"][0], now["beams"][0]
+    (fa, fa2), (fb, fb2) = foms(a), foms(b)
+    rms = rms_db(a, b)
+    row = {"case": text, "unknowns": b.meta["n_unknowns"], "freqs": len(freqs), "against": against,
+           "baseline_wall_s": base["wall_s"], "wall_s": now["wall_s"], "ratio": base["wall_s"] / now["wall_s"],
+           "baseline_first_rest_s": split_times(a, workers), "first_rest_s": split_times(b, workers),
+           "gain_rms_db_max": float(rms.max()), "fom_baseline_mk": fa, "fom_mk": fb, "fom_2h_baseline_mk": fa2,
+           "fom_2h_mk": fb2, "fom_diff_pct": 100 * (fb / fa - 1), "fom_2h_diff_pct": 100 * (fb2 / fa2 - 1),
+           "gmres_iterations": [int(x) for x in b.meta["gmres_iterations"]],
+           "baseline_peak_gib": base["peak_gib"], "peak_gib": now["peak_gib"]}
+    print(f"| {text} | {row['unknowns']} | {row['baseline_wall_s']:.1f} | {row['wall_s']:.1f} | {row['ratio']:.2f}x | "
+          f"{row['baseline_first_rest_s'][0]:.1f} / {row['baseline_first_rest_s'][1]:.1f} | "
+          f"{row['first_rest_s'][0]:.1f} / {row['first_rest_s'][1]:.1f} | {row['gain_rms_db_max']:.1e} | "
+          f"{fa:.1f} / {fb:.1f} ({row['fom_diff_pct']:+.3f} %) | {fa2:.1f} / {fb2:.1f} ({row['fom_2h_diff_pct']:+.3f} %) | "
+          f"{min(row['gmres_iterations'])}-{max(row['gmres_iterations'])} | "
+          f"{row['baseline_peak_gib']:.2f} / {row['peak_gib']:.2f} |", flush=True)
+    return row
+
+
+def soils_case(text: str, freqs: list[float], workers: int, against: str) -> dict:
+    name, spacing = case(text)
+    spec = {"design": name, "spacing": spacing, "freqs": freqs, "workers": workers, "method": "fast"}
+    with tempfile.TemporaryDirectory() as c0, tempfile.TemporaryDirectory() as c1, \
+            tempfile.TemporaryDirectory() as c2:
+        one = run_child({**spec, "soils": [SOILS[0]], "together": False}, ROOT, Path(c0))
+        cold = run_child({**spec, "soils": SOILS, "together": True}, ROOT, Path(c1))
+        warm = run_child({**spec, "soils": SOILS, "together": True}, ROOT, Path(c1))
+        root = ROOT if against == "dense" else baseline_root(against)
+        base = run_child({**spec, "soils": SOILS, "together": False}, root, Path(c2))
+    worst = max(float(rms_db(a, b).max()) for a, b in zip(base["beams"], cold["beams"]))
+    fom_diff = max(abs(foms(b)[1] / foms(a)[1] - 1) * 100 for a, b in zip(base["beams"], cold["beams"]))
+    row = {"case": text, "freqs": len(freqs), "one_soil_s": one["wall_s"], "five_cold_s": cold["wall_s"],
+           "five_warm_s": warm["wall_s"], "baseline_five_s": base["wall_s"],
+           "five_over_one_cold": cold["wall_s"] / one["wall_s"], "five_over_one_warm": warm["wall_s"] / one["wall_s"],
+           "baseline_over_now_cold": base["wall_s"] / cold["wall_s"], "gain_rms_db_max": worst,
+           "fom_2h_diff_pct_max": fom_diff, "peak_gib": cold["peak_gib"]}
+    print(f"| {text} | {len(freqs)} | {one['wall_s']:.1f} | {cold['wall_s']:.1f} ({row['five_over_one_cold']:.2f}x one) | "
+          f"{warm['wall_s']:.1f} ({row['five_over_one_warm']:.2f}x one) | {base['wall_s']:.1f} "
+          f"({row['baseline_over_now_cold']:.2f}x) | {worst:.1e} | {fom_diff:.3f} % |", flush=True)
     return row
 
 
 def main() -> None:
+    from groundplane.options import parse_freqs
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--cases", nargs="+", default=["square-10@0.5", "sawtooth-20-16@0.5"])
-    ap.add_argument("--freqs", type=parse_freqs, default=parse_freqs("55:97:2"))
+    ap.add_argument("--cases", nargs="*", default=["sawtooth-20-16@0.5"])
+    ap.add_argument("--freqs", type=parse_freqs, default=parse_freqs("55:97:1"))
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--against", default=BASELINE_REV, help="a git revision, or dense (today's --method dense)")
+    ap.add_argument("--soils", nargs="*", default=[], metavar="CASE@SPACING")
+    ap.add_argument("--soil-freqs", type=parse_freqs, default=parse_freqs("55:97:2"))
     ap.add_argument("--json", help="also write the rows here")
     args = ap.parse_args()
-    freqs = np.asarray(args.freqs, float)
-    print(f"{len(freqs)} frequencies {freqs[0]:g}-{freqs[-1]:g} MHz, {args.workers} worker process(es), "
-          "sheet 5 mm above MRO soil; times per frequency in a worker (s)")
-    print("| case | unknowns | dense (s) | fast (s) | dense / fast | gain rms diff (dB, max over f) | "
-          "FoM dense / fast (mK) | FoM 2 h bins dense / fast (mK) | GMRES iterations |")
-    print("|---|---|---|---|---|---|---|---|---|")
-    rows = [run(c, freqs, args.workers) for c in args.cases]
+    rows: dict[str, list] = {"cases": [], "soils": []}
+    freqs = [float(f) for f in args.freqs]
+    if args.cases:
+        print(f"{len(freqs)} frequencies {freqs[0]:g}-{freqs[-1]:g} MHz, {args.workers} worker process(es), sheet 5 mm "
+              f"above MRO soil, cold; baseline: {args.against}; wall times of the whole solve (s)")
+        print("| case | unknowns | baseline (s) | now (s) | baseline / now | baseline first / rest per freq (s) | "
+              "now first / rest (s) | gain rms diff (dB, worst freq) | FoM every LST, baseline / now (mK) | "
+              "FoM 2 h bins (mK) | GMRES iterations | peak memory baseline / now (GiB) |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+        rows["cases"] = [compare_case(c, freqs, args.workers, args.against) for c in args.cases]
+    if args.soils:
+        sf = [float(f) for f in args.soil_freqs]
+        print(f"\nFive soils {SOILS} of one design, {len(sf)} frequencies {sf[0]:g}-{sf[-1]:g} MHz, "
+              f"{args.workers} workers; wall times (s)")
+        print("| case | freqs | one soil | five together, tables cold | five together, tables warm | "
+              "baseline, five one by one | gain rms diff (dB, worst) | FoM 2 h diff (worst) |")
+        print("|---|---|---|---|---|---|---|---|")
+        rows["soils"] = [soils_case(c, sf, args.workers, args.against) for c in args.soils]
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump({"argv": sys.argv, "rows": rows}, fh, indent=1)
+        Path(args.json).write_text(json.dumps({"argv": sys.argv, **rows}, indent=1))
 
 
 if __name__ == "__main__":
-    main()
+    if len(sys.argv) == 3 and sys.argv[1] == "--child":
+        child(json.loads(sys.argv[2]))
+    else:
+        main()

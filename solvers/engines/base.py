@@ -148,11 +148,12 @@ class Plan:
     label: str = ""
 
 
-def _timed(args: tuple) -> tuple[float, np.ndarray, dict[str, float], float]:
+def _timed(args: tuple) -> tuple[float, Any, float]:
+    """(frequency, what the plan's job returned, seconds), in a worker."""
     job, payload, freq = args
     t0 = time.perf_counter()
-    gain, extras = job(payload, freq)
-    return freq, gain, extras, time.perf_counter() - t0
+    out = job(payload, freq)
+    return freq, out, time.perf_counter() - t0
 
 
 class FrequencySolver:
@@ -211,6 +212,17 @@ class FrequencySolver:
     def plan(self, design: Design) -> Plan:  # pragma: no cover - abstract
         raise NotImplementedError
 
+    def share_key(self, design: Design) -> str | None:
+        """Designs with one share key (not None) are solved together by :meth:`solve_many`, every
+        member at a frequency in one job, because what differs between them (the soil's values)
+        is cheap beside what they share. None (the default): the design is solved alone."""
+        return None
+
+    def plan_group(self, designs: list[Design]) -> Plan:
+        """One plan for designs of one share key: its job returns [(gain, extras, seconds)],
+        one per design in order. Engines that share work define it with :meth:`share_key`."""
+        raise NotImplementedError(f"the {self.name} engine solves designs one at a time")
+
     # ------------------------------------------------------------------- caching
     def identity(self, design: Design, freqs: np.ndarray) -> dict[str, Any]:
         return {
@@ -248,7 +260,7 @@ class FrequencySolver:
                 return hit
             results = cache.partial(key) if cache is not None else {}
             todo = [float(f) for f in freqs if float(f) not in results]
-            for f, gain, extras, secs in self._run(plan, todo, design, freqs.size):
+            for f, (gain, extras), secs in self._run(plan, todo, design, freqs.size):
                 results[f] = (gain, secs, extras)
                 if cache is not None:
                     cache.put_partial(key, f, gain, secs, **extras)
@@ -257,8 +269,63 @@ class FrequencySolver:
                 cache.put(key, beam)
             return beam
 
+    def solve_many(self, designs: list[Design], freqs_mhz: Iterable[float] = DEFAULT_FREQS_MHZ) -> list[Beam]:
+        """The beams of several designs (a scenario set's members), in order: each from the
+        cache when it is there; designs of one :meth:`share_key` solved together, the rest
+        one by one. The same beams (and cache entries) as :meth:`solve` of each."""
+        from .cache import BeamCache
+
+        freqs = _freqs(freqs_mhz)
+        cache = BeamCache() if self.use_cache else None
+        keys = [self.cache_key(d, freqs) for d in designs]
+        beams: dict[str, Beam] = {}
+        groups: dict[str, list[int]] = {}
+        for i, (design, key) in enumerate(zip(designs, keys)):
+            if key in beams or any(key == keys[j] for m in groups.values() for j in m):
+                continue  # the same design twice: solved once
+            if cache is not None and (hit := cache.get(key)) is not None:
+                beams[key] = hit
+                continue
+            share = self.share_key(design)
+            groups.setdefault(share if share is not None else f"alone {key}", []).append(i)
+        for members in groups.values():
+            if len(members) == 1:
+                beams[keys[members[0]]] = self.solve(designs[members[0]], freqs)
+                continue
+            solved = self._solve_group([designs[i] for i in members], [keys[i] for i in members], freqs, cache)
+            beams.update(zip((keys[i] for i in members), solved))
+        return [beams[k] for k in keys]
+
+    def _solve_group(self, designs: list[Design], keys: list[str], freqs: np.ndarray, cache) -> list[Beam]:
+        """Designs of one share key, every member at a frequency in one job; each member's
+        frequencies cached as they finish, under its own key (resumable like :meth:`solve`)."""
+        from contextlib import ExitStack
+
+        for design in designs:
+            self.check(design)
+        plan = self.plan_group(designs)
+        with ExitStack() as held:
+            if cache is not None:
+                for key in sorted(keys):  # one order for every process: no deadlock
+                    held.enter_context(cache.lock(key, f"{self.name} {plan.label}"))
+                hits = [cache.get(key) for key in keys]
+                if all(h is not None for h in hits):  # solved by another process meanwhile
+                    return hits  # type: ignore[return-value]
+            results = [cache.partial(key) if cache is not None else {} for key in keys]
+            todo = [float(f) for f in freqs if any(float(f) not in r for r in results)]
+            for f, outs, _ in self._run(plan, todo, designs[0], freqs.size):
+                for key, res, (gain, extras, secs) in zip(keys, results, outs):
+                    res[f] = (gain, secs, extras)
+                    if cache is not None:
+                        cache.put_partial(key, f, gain, secs, **extras)
+            beams = [self._assemble(d, freqs, plan, r, key) for d, r, key in zip(designs, results, keys)]
+            if cache is not None:
+                for key, beam in zip(keys, beams):
+                    cache.put(key, beam)
+            return beams
+
     def _run(self, plan: Plan, todo: list[float], design: Design, n_total: int):
-        """Yield (freq, gain, extras, seconds) as frequencies finish (saved one by one).
+        """Yield (freq, the job's result, seconds) as frequencies finish (saved one by one).
 
         A worker that dies (the OOM killer, a kill) breaks the pool; what finished is kept
         and the rest is tried once more in a fresh pool before the solve is called failed."""

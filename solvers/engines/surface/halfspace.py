@@ -32,6 +32,8 @@ theta component, R_h for phi), the same reflection-coefficient far field as NEC-
 """
 from __future__ import annotations
 
+import hashlib
+import json
 from dataclasses import dataclass
 
 import numpy as np
@@ -130,13 +132,18 @@ def tail_nodes(k0: float, eps: complex, zeta: float, k_from: float, rho_max: flo
     return kr, kr / (1j * _kz(k0 ** 2, kr)) * wk
 
 
-def _integrate(rho: np.ndarray, kr: np.ndarray, w: np.ndarray, k0: float, eps: complex, zeta: float,
+def _integrate(rho: np.ndarray, kr: np.ndarray, w: np.ndarray, k0: float, eps: list[complex], zeta: float,
                chunk: int) -> np.ndarray:
-    rte, rq = reflection(kr, k0, eps)
-    decay = np.exp(-1j * _kz(k0 ** 2, kr) * zeta) * w
-    fa, fq = rte * decay, (rq - charge_image(eps)) * decay
-    f = np.stack([fa.real, fa.imag, fq.real, fq.imag], axis=1)
-    out = np.zeros((len(rho), 4))
+    """[n_rho, 4 x n_soils]: Re, Im of S(R_TE) and of S(R_q - K_q) for each soil ``eps``, one
+    J0 matrix for all of them (the J0 evaluations are the cost; the soils only weight them)."""
+    cols = []
+    for e in eps:
+        rte, rq = reflection(kr, k0, e)
+        decay = np.exp(-1j * _kz(k0 ** 2, kr) * zeta) * w
+        fa, fq = rte * decay, (rq - charge_image(e)) * decay
+        cols += [fa.real, fa.imag, fq.real, fq.imag]
+    f = np.stack(cols, axis=1)
+    out = np.zeros((len(rho), f.shape[1]))
     for s in range(0, len(rho), chunk):
         out[s:s + chunk] = j0(np.outer(rho[s:s + chunk], kr)) @ f
     return out
@@ -150,18 +157,28 @@ def reflected_integrals(rho: np.ndarray, k0: float, eps: complex, zeta: float,
     ``split``: the spectral tail beyond :func:`_split_point` is added only where rho <=
     TAIL_RHO (its panels then resolve J0 to TAIL_RHO, not to ``rho_max``): 10-30x fewer
     J0 evaluations for the plate's 1 cm height sum; ``split=False`` is the reference."""
+    return reflected_integrals_many(rho, k0, [eps], zeta, rho_max, chunk, split)[0]
+
+
+def reflected_integrals_many(rho: np.ndarray, k0: float, eps: list[complex], zeta: float,
+                             rho_max: float | None = None, chunk: int = 64,
+                             split: bool = True) -> list[tuple[np.ndarray, np.ndarray]]:
+    """:func:`reflected_integrals` for several soils at once, on one rule: its nodes reach as
+    far as the soil that needs the most (the others' extra nodes add below 1e-17)."""
     rho = np.asarray(rho, dtype=float)
     rho_max = float(rho.max()) if rho_max is None else rho_max
-    k_split = _split_point(k0, eps) if split and rho_max > TAIL_RHO else np.inf
-    kr, w = spectral_nodes(k0, eps, zeta, rho_max, k_stop=k_split)
+    far = max(eps, key=lambda e: abs(np.sqrt(e)))  # the end and split grow with |sqrt(eps)|
+    k_split = _split_point(k0, far) if split and rho_max > TAIL_RHO else np.inf
+    kr, w = spectral_nodes(k0, far, zeta, rho_max, k_stop=k_split)
     out = _integrate(rho, kr, w, k0, eps, zeta, chunk)
     if np.isfinite(k_split):  # the tail starts where the body's last panel ends
-        body_end = _straight_edges(k0, eps, zeta, _panel_width(k0, rho_max), k_split)[-1]
-        kr_t, w_t = tail_nodes(k0, eps, zeta, float(body_end), TAIL_RHO)
+        body_end = _straight_edges(k0, far, zeta, _panel_width(k0, rho_max), k_split)[-1]
+        kr_t, w_t = tail_nodes(k0, far, zeta, float(body_end), TAIL_RHO)
     if np.isfinite(k_split) and len(kr_t):
         near = rho <= TAIL_RHO
         out[near] += _integrate(rho[near], kr_t, w_t, k0, eps, zeta, chunk)
-    return out[:, 0] + 1j * out[:, 1], out[:, 2] + 1j * out[:, 3]
+    return [(out[:, 4 * i] + 1j * out[:, 4 * i + 1], out[:, 4 * i + 2] + 1j * out[:, 4 * i + 3])
+            for i in range(len(eps))]
 
 
 def _panel_width(k0: float, rho_max: float) -> float:
@@ -189,23 +206,67 @@ class ReflectedKernels:
     @classmethod
     def build(cls, freq_hz: float, eps_r: float, sigma: float, zetas: np.ndarray,
               rho_max: float) -> "ReflectedKernels":
+        return cls.build_many(freq_hz, [(eps_r, sigma)], zetas, rho_max)[0]
+
+    @classmethod
+    def build_many(cls, freq_hz: float, soils: list[tuple[float, float]], zetas: np.ndarray,
+                   rho_max: float) -> list["ReflectedKernels"]:
+        """The kernels of each soil (eps_r, sigma S/m) at one frequency; soils that sample rho
+        alike (most do: the step is capped at 5 cm) share one J0 matrix per height sum."""
         k0 = 2 * np.pi * freq_hz / C0
-        eps = soil_permittivity(eps_r, sigma, freq_hz)
         zetas = np.unique(np.round(np.asarray(zetas, dtype=float), 9))
-        k_soil = abs(np.sqrt(eps)) * k0
-        coarse_step = min(0.25 / k_soil, 0.05)  # ~ soil wavelength / 25
-        fine = coarse_step / 8
-        n = int(np.ceil(rho_max / fine)) + 2
-        tables = np.empty((len(zetas), 2, n), dtype=complex)
-        grid = np.arange(n) * fine
-        for i, zeta in enumerate(zetas):
-            near = np.arange(0.0, 6 * zeta, min(zeta, coarse_step) / 4)
-            coarse = np.unique(np.concatenate([near, np.arange(0.0, grid[-1] + coarse_step, coarse_step)]))
-            a, q = reflected_integrals(coarse, k0, eps, float(zeta))
-            for j, vals in enumerate((a, q)):
-                spline = CubicSpline(coarse, vals)
-                tables[i, j] = spline(grid)
-        return cls(k0, eps, zetas, fine, tables)
+        eps = [soil_permittivity(e, s, freq_hz) for e, s in soils]
+        steps = [min(0.25 / (abs(np.sqrt(e)) * k0), 0.05) for e in eps]  # ~ soil wavelength / 25
+        out: list[ReflectedKernels | None] = [None] * len(soils)
+        for coarse_step in sorted(set(steps)):
+            group = [i for i, st in enumerate(steps) if st == coarse_step]
+            fine = coarse_step / 8
+            n = int(np.ceil(rho_max / fine)) + 2
+            tables = np.empty((len(group), len(zetas), 2, n), dtype=complex)
+            grid = np.arange(n) * fine
+            for iz, zeta in enumerate(zetas):
+                near = np.arange(0.0, 6 * zeta, min(zeta, coarse_step) / 4)
+                coarse = np.unique(np.concatenate([near, np.arange(0.0, grid[-1] + coarse_step, coarse_step)]))
+                values = reflected_integrals_many(coarse, k0, [eps[i] for i in group], float(zeta))
+                for g, (a, q) in enumerate(values):
+                    for j, vals in enumerate((a, q)):
+                        tables[g, iz, j] = CubicSpline(coarse, vals)(grid)
+            for g, i in enumerate(group):
+                out[i] = cls(k0, eps[i], zetas, fine, tables[g])
+        return out  # type: ignore[return-value]
+
+    @classmethod
+    def cached(cls, freq_hz: float, eps_r: float, sigma: float, zetas: np.ndarray,
+               rho_max: float) -> "ReflectedKernels":
+        """:meth:`cached_many` of one soil."""
+        return cls.cached_many(freq_hz, [(eps_r, sigma)], zetas, rho_max)[0]
+
+    @classmethod
+    def cached_many(cls, freq_hz: float, soils: list[tuple[float, float]], zetas: np.ndarray,
+                    rho_max: float) -> list["ReflectedKernels"]:
+        """:meth:`build_many`, tabulated out to ``rho_max`` rounded up to TABLE_BUCKET_M and kept
+        (in this process and on disk under the cache folder): the tables depend on the soil,
+        the frequency and the metal's heights, not on the plate's outline, so every design of
+        a search (and every worker) shares them. A damaged file is built again."""
+        rho_max = TABLE_BUCKET_M * np.ceil(max(rho_max, 1e-3) / TABLE_BUCKET_M)
+        zetas = np.unique(np.round(np.asarray(zetas, dtype=float), 9))
+        idents = [json.dumps([TABLE_VERSION, round(freq_hz, 3), float(e), float(s), zetas.tolist(), float(rho_max)])
+                  for e, s in soils]
+        keys = [hashlib.sha256(ident.encode()).hexdigest()[:32] for ident in idents]
+        folder = _table_dir()
+        found: list[ReflectedKernels | None] = []
+        for key, ident in zip(keys, idents):
+            if key not in _TABLES and folder is not None and (k := _read_tables(folder / f"{key}.npz", ident)):
+                _remember(key, k)
+            found.append(_TABLES.get(key))
+        missing = [i for i, k in enumerate(found) if k is None]
+        if missing:
+            for i, kernels in zip(missing, cls.build_many(freq_hz, [soils[i] for i in missing], zetas, rho_max)):
+                found[i] = kernels
+                _remember(keys[i], kernels)
+                if folder is not None:
+                    _write_tables(folder / f"{keys[i]}.npz", idents[i], kernels)
+        return found  # type: ignore[return-value]
 
     def lookup(self, rho: np.ndarray, zeta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(S(R_TE), S(R_q - K_q)) at horizontal distances ``rho`` and height sums ``zeta``
@@ -228,3 +289,51 @@ def fresnel(cos_theta: np.ndarray, eps: complex) -> tuple[np.ndarray, np.ndarray
     c = np.asarray(cos_theta, dtype=float)
     root = np.sqrt(eps - (1 - c ** 2) + 0j)
     return (eps * c - root) / (eps * c + root), (c - root) / (c + root)
+
+
+TABLE_BUCKET_M = 8.0  # tables reach a multiple of this: designs of similar size share them
+TABLE_VERSION = 1  # bump when :meth:`ReflectedKernels.build` changes: old files are then not read
+TABLES_IN_MEMORY = 64  # one frequency and soil each (~0.5 MB): a worker's band on a few soils
+_TABLES: dict[str, ReflectedKernels] = {}
+
+
+def _remember(key: str, kernels: ReflectedKernels) -> None:
+    if len(_TABLES) >= TABLES_IN_MEMORY and key not in _TABLES:
+        _TABLES.pop(next(iter(_TABLES)))
+    _TABLES[key] = kernels
+
+
+def _table_dir():
+    """Where tables are kept on disk (``<cache>/sommerfeld``), or None when it cannot be made."""
+    from groundplane.sky import cache_dir
+
+    d = cache_dir() / "sommerfeld"
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return None
+    return d
+
+
+def _read_tables(path, ident: str) -> ReflectedKernels | None:
+    """The kernels stored at ``path`` for ``ident``, or None (absent, damaged or another's)."""
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            if str(z["ident"]) != ident:
+                return None
+            return ReflectedKernels(float(z["k0"]), complex(z["eps"]), np.array(z["zetas"]), float(z["step"]),
+                                    np.array(z["tables"]))
+    except Exception:  # noqa: BLE001 - absent or any damage: build it again
+        return None
+
+
+def _write_tables(path, ident: str, kernels: ReflectedKernels) -> None:
+    from groundplane.errors import GroundplaneError
+    from groundplane.files import atomic_path
+
+    try:
+        with atomic_path(path, suffix=".tmp.npz") as tmp:
+            np.savez(tmp, ident=ident, k0=kernels.k0, eps=kernels.eps, zetas=kernels.zetas, step=kernels.step,
+                     tables=kernels.tables)
+    except (GroundplaneError, OSError):  # a cache we cannot write: the tables are built again next time
+        pass

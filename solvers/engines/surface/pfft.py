@@ -52,6 +52,7 @@ from .rwg import (
 GRID_FRACTION = 0.3  # grid spacing as a fraction of the plate's typical triangle size
 GRID_MAX = 0.25  # m: never coarser (the soil's reflected kernels vary on ~ its wavelength / 2 pi)
 PRECORRECT_CELLS = 5.0  # grid cells: point pairs closer than this are precorrected (stencil reach 1.5 cells)
+FAR_REACH_CELLS = 8  # the soil's tables reach this many grid cells past the metal (the grid's offsets reach 5)
 GMRES_RTOL = 1e-5
 GMRES_RESTART = 200
 
@@ -578,7 +579,7 @@ class FastOperator:
                 kernel_fft[:, :, 0] += wa * spectra[:, :, 1]
         if prob.ground == "soil":
             g = model.grid
-            kernels = prob.reflected_kernels(freq_hz, 8 * g.h, soil)  # grid offsets reach 5 cells past the metal
+            kernels = prob.reflected_kernels(freq_hz, FAR_REACH_CELLS * g.h, soil)
             table = _reflected_tables(model, kernels)
             kernel_fft += _spectra(model, table)
             asm, mesh, c_q = model.assembly(), prob.mesh, 4 * self.c_phi

@@ -321,12 +321,16 @@ class Problem:
         solve's grid extends past the metal)."""
         if self.ground != "soil":
             return None
-        soil = soil or self.soil
+        return self.reflected_kernels_many(freq_hz, [soil or self.soil], reach)[0]
+
+    def reflected_kernels_many(self, freq_hz: float, soils: list[tuple[float, float]],
+                               reach: float = 0.0) -> list[ReflectedKernels]:
+        """:meth:`reflected_kernels` of several soils, built together (and kept)."""
         levels = np.unique(np.round(self.mesh.nodes[:, 2], 9))
         zetas = (levels[:, None] + levels[None, :]).ravel()
         xy = self.mesh.nodes[:, :2]
         rho_max = float(np.hypot(*(xy.max(axis=0) - xy.min(axis=0)))) + 0.1 + reach
-        return ReflectedKernels.build(freq_hz, *soil, zetas, rho_max)
+        return ReflectedKernels.cached_many(freq_hz, soils, zetas, rho_max)
 
 
 def _subdivided(rule: tuple[np.ndarray, np.ndarray], level: int) -> tuple[np.ndarray, np.ndarray]:

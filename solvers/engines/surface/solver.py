@@ -7,6 +7,7 @@ calibration: gain = 4 pi U / P_in. Radiated over input power is recorded per fre
 efficiency over soil (what the soil absorbs is lost)."""
 from __future__ import annotations
 
+import json
 from importlib import metadata
 from typing import ClassVar
 
@@ -94,6 +95,27 @@ def solve_frequency(payload: tuple, freq_mhz: float) -> tuple[np.ndarray, dict[s
                "energy_balance": balance, **extras}
 
 
+def solve_soils(payload: tuple, freq_mhz: float) -> list[tuple[np.ndarray, dict[str, float], float]]:
+    """Worker job of a group plan: one design on several soils at one frequency, the design's
+    model and the frequency's soil-independent terms built once (``pfft``'s caches)."""
+    import time
+
+    base, soils = payload
+    mesh, ground, _, near_factor, _, method = base
+    if method == "fast":  # every soil's Sommerfeld tables at this frequency in one go (one J0 matrix)
+        from .pfft import FAR_REACH_CELLS, fast_model, problem_of
+
+        prob = problem_of(mesh, ground, near_factor, soils[0])
+        h = fast_model(prob, base[2] == 91).grid.h
+        prob.reflected_kernels_many(freq_mhz * 1e6, soils, FAR_REACH_CELLS * h)
+    out = []
+    for soil in soils:
+        t0 = time.perf_counter()
+        gain, extras = solve_frequency((*base[:4], soil, base[5]), freq_mhz)
+        out.append((gain, extras, time.perf_counter() - t0))
+    return out
+
+
 @register_engine
 class SurfaceSolver(FrequencySolver):
     """Solve designs over infinite PEC ground, soil or in free space with the surface-current
@@ -118,6 +140,20 @@ class SurfaceSolver(FrequencySolver):
         if design.ground_kind not in self.grounds:
             raise SettingsError(f"{design.label()}: the surface engine cannot solve over {design.ground_kind!r} "
                                 f"ground (it solves over {', '.join(self.grounds)})")
+
+    def share_key(self, design: Design) -> str | None:
+        """A fast solve over soil shares everything but the soil's values with the same design
+        on other soils (the model and each frequency's direct and image terms)."""
+        if self.settings.method != "fast" or design.ground_kind != "soil":
+            return None
+        ident = self.identity(design, np.array([1.0]))
+        ident["design"]["ground"] = "soil"
+        return json.dumps(ident, sort_keys=True)
+
+    def plan_group(self, designs: list[Design]) -> Plan:
+        plan = self.plan(designs[0])
+        soils = [_soil(d) for d in designs]
+        return Plan(solve_soils, (plan.payload, soils), plan.n_phi, plan.meta, f"{plan.label} on {len(soils)} soils")
 
     def plan(self, design: Design) -> Plan:
         try:

@@ -154,3 +154,43 @@ def test_an_outline_with_a_sliver_angle_is_refused_not_meshed_until_memory_runs_
     assert time.perf_counter() - t0 < 30
     v, t = _triangulate(Polygon([(0, 0), (10, 0), (10, 10), (0, 10)]), 0.5)  # a sane outline is untouched
     assert len(t) > 400
+
+
+def test_soils_of_one_design_are_solved_together_and_cached_each_as_alone(tmp_path, monkeypatch):
+    """solve_many shares one frequency's work between the soils of a design: the same beams as
+    one solve per soil, each cached under its own key (a later single solve is a cache hit),
+    a duplicate solved once, a design of another geometry beside them solved on its own."""
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path))
+    settings = SurfaceSettings(spacing=1.5, blade_cells=(4, 4))
+    solver = make_solver("surface", settings, workers=0)
+    plane = Square(side=4.0)
+    soils = [Soil(), Soil(2.5, 0.005), Soil(5.0, 0.05)]
+    designs = [Design(plane, s) for s in soils] + [Design(plane, soils[0]), Design(Square(side=3.0), soils[1])]
+    assert len({solver.share_key(d) for d in designs[:3]}) == 1 and solver.share_key(designs[4]) != solver.share_key(designs[0])
+    together = solver.solve_many(designs, [60.0, 80.0])
+    alone = make_solver("surface", settings, workers=0, use_cache=False)
+    for d, beam in zip(designs, together):
+        assert np.allclose(beam.gain, alone.solve(d, [60.0, 80.0]).gain, rtol=1e-9)
+        assert solver.cached(d, [60.0, 80.0]) is not None
+    assert together[3] is together[0] or np.array_equal(together[3].gain, together[0].gain)
+    assert make_solver("surface", SurfaceSettings(spacing=1.5, blade_cells=(4, 4), method="dense")).share_key(
+        designs[0]) is None
+
+
+def test_sommerfeld_tables_are_kept_and_a_damaged_file_is_built_again(tmp_path, monkeypatch):
+    from solvers.engines.surface import halfspace
+
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path))
+    monkeypatch.setattr(halfspace, "_TABLES", {})
+    zetas = np.array([0.01, 1.045])
+    a = halfspace.ReflectedKernels.cached(70e6, 3.5, 0.02, zetas, 5.0)
+    files = list((tmp_path / "sommerfeld").glob("*.npz"))
+    assert len(files) == 1
+    built = halfspace.ReflectedKernels.build(70e6, 3.5, 0.02, zetas, 8.0)  # the 8 m bucket
+    assert np.array_equal(a.tables, built.tables)
+    files[0].write_bytes(b"not a table")
+    monkeypatch.setattr(halfspace, "_TABLES", {})
+    again = halfspace.ReflectedKernels.cached(70e6, 3.5, 0.02, zetas, 5.0)
+    assert np.array_equal(again.tables, built.tables)
+    many = halfspace.ReflectedKernels.build_many(70e6, [(3.5, 0.02), (2.5, 0.005)], zetas, 8.0)
+    assert np.allclose(many[0].tables, built.tables, rtol=1e-12, atol=1e-15)
