@@ -23,10 +23,19 @@ from typing import Any
 
 import numpy as np
 
-from .errors import BeamFormatError, UserInputError
+from .errors import BeamFormatError, GroundLossUndefined, UserInputError
 from .files import atomic_path
 
-__all__ = ["Beam", "BeamFormatError", "READER_GROUP"]
+__all__ = ["Beam", "BeamFormatError", "GAIN_NORMALISATIONS", "GroundLossUndefined", "READER_GROUP"]
+
+GAIN_NORMALISATIONS: dict[str, str] = {
+    "input_power": "4 pi U / P_in, the power the antenna takes in (a solver's 'Gain'; our engines' gain)",
+    "available_power": "4 pi U / P_available ('Realized Gain': the feed's mismatch counts as a loss too)",
+    "radiated_power": "4 pi U / P_rad (directivity: lossless by definition)",
+    "unknown": "the file does not say",
+}
+"""What ``Beam.gain`` is normalised to (``meta["gain_normalisation"]``). Only ``input_power``
+makes 1 - the upper hemisphere's share of the power a ground loss."""
 
 READER_GROUP = "groundplane.beam_readers"
 """Entry-point group of beam-file readers: ``name = "module:function"`` where
@@ -117,6 +126,52 @@ class Beam:
             prv = np.concatenate([[p[-1] - 2 * np.pi], p[:-1]])
             dphi = 0.5 * (nxt - prv)
         return np.clip(band, 0.0, None)[:, None] * dphi[None, :]
+
+    @property
+    def gain_normalisation(self) -> str:
+        """What the gain is normalised to (a key of :data:`GAIN_NORMALISATIONS`): the meta's
+        ``gain_normalisation``, else our engines' (input power), else read from the exported
+        quantity's name ('Gain', 'Realized Gain', 'Directivity'), else ``unknown``."""
+        said = self.meta.get("gain_normalisation")
+        if said in GAIN_NORMALISATIONS:
+            return said
+        if self.meta.get("solver") in ("surface", "nec"):  # beams cached before the key was written
+            return "input_power"
+        quantity = str(self.meta.get("quantity", "")).lower()
+        if "realized" in quantity or "realised" in quantity:
+            return "available_power"
+        if "dir" in quantity:
+            return "radiated_power"
+        return "input_power" if "gain" in quantity else "unknown"
+
+    def ground_loss(self) -> np.ndarray:
+        """Ground loss per frequency: L = 1 - (1/4 pi) int over the upper hemisphere of G dOmega
+        (SPEC section 2), the power the soil absorbs as a fraction of what the antenna takes
+        in. Quadrature: :meth:`solid_angle_weights`' cell areas (exact in theta, the midpoint
+        rule in phi). Refused (:class:`GroundLossUndefined`) for a gain not normalised to input
+        power, and for a beam that does not cover the upper hemisphere."""
+        norm = self.gain_normalisation
+        src = self.meta.get("source", "beam")
+        if norm != "input_power":
+            what = {"available_power": "the available power (Realized Gain)", "radiated_power": "the radiated power "
+                    "(directivity)", "unknown": "a power the file does not state"}[norm]
+            raise GroundLossUndefined(f"{src}: its gain is normalised to {what}, not to the antenna's input power, so "
+                                      "1 - its upper-hemisphere integral is no ground loss (export the solver's "
+                                      "'Gain', normalised to input power, for one)")
+        hemi = self.upper_hemisphere()
+        if hemi.theta_deg.size < 2 or hemi.theta_deg[0] > 1e-6 or hemi.theta_deg[-1] < 90 - 1e-6:
+            raise GroundLossUndefined(f"{src}: the beam must cover theta 0..90 deg for its ground loss")
+        gaps = np.diff(np.concatenate([hemi.phi_deg, [hemi.phi_deg[0] + 360.0]]))
+        if hemi.phi_deg.size < 4 or gaps.max() > 1.5 * np.median(gaps):
+            raise GroundLossUndefined(f"{src}: the beam must cover the full circle of azimuth for its ground loss "
+                                      "(FEKO quadrant files: `groundplane convert` them into one beam first)")
+        return 1.0 - hemi.upper_hemisphere_share()
+
+    def upper_hemisphere_share(self) -> np.ndarray:
+        """(1/4 pi) int over theta <= 90 deg of G dOmega per frequency, by the cell areas of
+        :meth:`solid_angle_weights`: 1 for a lossless model over PEC, 1/2 for an isotropic beam."""
+        hemi = self.upper_hemisphere()
+        return np.einsum("ftp,tp->f", hemi.gain, hemi.solid_angle_weights()) / (4 * np.pi)
 
     def cut(self, phi_deg: float) -> np.ndarray:
         """Gain [freq, theta] in the vertical plane at azimuth ``phi_deg`` (nearest sample)."""

@@ -21,6 +21,7 @@ from . import paper
 from .beam import Beam
 from .errors import UserInputError
 from .fom import FomResult, FomSettings, figure_of_merit, fit_band_mask
+from .loss import loss_or_note
 
 __all__ = ["BeamSummary", "Comparison", "PairDifference", "common_beams", "compare_beams", "direction_differences",
            "shared_grid", "upper_hemisphere_efficiency"]
@@ -97,10 +98,8 @@ def common_beams(beams: Sequence[Beam], labels: Sequence[str], settings: FomSett
 
 
 def upper_hemisphere_efficiency(beam: Beam) -> np.ndarray:
-    """int G dOmega / 4 pi over the upper hemisphere, per frequency."""
-    hemi = beam.upper_hemisphere()
-    w = hemi.solid_angle_weights()
-    return np.einsum("ftp,tp->f", hemi.gain, w) / (4 * np.pi)
+    """int G dOmega / 4 pi over the upper hemisphere, per frequency (:meth:`Beam.upper_hemisphere_share`)."""
+    return beam.upper_hemisphere_share()
 
 
 def direction_differences(a: Beam, b: Beam, elevation_cut_deg: float = 10.0) -> dict[str, np.ndarray]:
@@ -134,12 +133,23 @@ class BeamSummary:
     efficiency: np.ndarray
     width_e_deg: np.ndarray
     width_h_deg: np.ndarray
+    ground_loss: np.ndarray | None = None  # None when the gain is not normalised to input power
+    ground_loss_note: str | None = None
 
     def as_json(self) -> dict[str, Any]:
         return {"label": self.label, "path": self.path, "fom_mk": self.fom.lst_averaged_fom_mk,
                 "fom_binned_mk": self.fom_binned.lst_averaged_fom_mk, "fom_lst_mk": (self.fom.fom * 1e3).tolist(),
                 "fom_binned_lst_mk": (self.fom_binned.fom * 1e3).tolist(), "efficiency": self.efficiency.tolist(),
-                "width_e_deg": _json_floats(self.width_e_deg), "width_h_deg": _json_floats(self.width_h_deg)}
+                "width_e_deg": _json_floats(self.width_e_deg), "width_h_deg": _json_floats(self.width_h_deg),
+                "ground_loss": None if self.ground_loss is None else self.ground_loss.tolist(),
+                **({"ground_loss_note": self.ground_loss_note} if self.ground_loss_note else {})}
+
+    def loss_cell(self, i: int | None = None) -> str:
+        """The ground loss in %: at frequency index ``i``, or its range; '-' when undefined."""
+        if self.ground_loss is None:
+            return "-"
+        v = 100 * self.ground_loss
+        return f"{v[i]:.2f}" if i is not None else f"{v.min():.2f}-{v.max():.2f}"
 
 
 @dataclass
@@ -196,23 +206,25 @@ class Comparison:
                  f"{self.elevation_cut_deg:g} deg elevation; FoM: {s.n_terms}-term LinLog over "
                  f"{s.fit_band_mhz[0]:g}-{s.fit_band_mhz[1]:g} MHz, every LST and in {self.bin_hours:g} h LST bins.",
                  "", f"| beam | FoM every LST (mK) | FoM {self.bin_hours:g} h bins (mK) | FoM / {first}'s | "
-                 "efficiency (min-max) | E width (deg, min-max) | H width (deg, min-max) |", "|---|---|---|---|---|---|---|"]
+                 "ground loss (%, min-max) | efficiency (min-max) | E width (deg, min-max) | H width (deg, min-max) |",
+                 "|---|---|---|---|---|---|---|---|"]
         ref = self.beams[0].fom.lst_averaged_fom_mk
         for b in self.beams:
             lines.append(f"| {b.label} | {b.fom.lst_averaged_fom_mk:.2f} | {b.fom_binned.lst_averaged_fom_mk:.2f} | "
-                         f"{b.fom.lst_averaged_fom_mk / ref:.4f} | {_span(b.efficiency, 3)} | "
+                         f"{b.fom.lst_averaged_fom_mk / ref:.4f} | {b.loss_cell()} | {_span(b.efficiency, 3)} | "
                          f"{_span(b.width_e_deg, 1)} | {_span(b.width_h_deg, 1)} |")
+        lines += [f"\n{b.label}: no ground loss: {b.ground_loss_note}" for b in self.beams if b.ground_loss_note]
         for p in self.pairs:
             k = int(np.argmax(p.rms_db))
             lines += ["", f"{p.b} - {p.a}: rms over the sky {p.rms_db.min():.3f}-{p.rms_db.max():.3f} dB "
                       f"(largest at {f[k]:g} MHz), largest single direction {p.max_db.max():.3f} dB, zenith ratio "
                       f"{p.zenith_ratio.min():.4f}-{p.zenith_ratio.max():.4f}; FoM per LST differs by "
                       f"{p.fom_diff_mk.min():+.2f} to {p.fom_diff_mk.max():+.2f} mK."]
-        head = "| f (MHz) | " + " | ".join(f"{b.label} eff / E / H width" for b in self.beams) + " | " + " | ".join(
+        head = "| f (MHz) | " + " | ".join(f"{b.label} loss % / E / H width" for b in self.beams) + " | " + " | ".join(
             f"{p.b} - {p.a}: rms dB / max dB / zenith ratio" for p in self.pairs) + " |"
         lines += ["", head, "|" + "---|" * (1 + len(self.beams) + len(self.pairs))]
         for i, fi in enumerate(f):
-            cells = [f"{b.efficiency[i]:.3f} / {b.width_e_deg[i]:.1f} / {b.width_h_deg[i]:.1f}" for b in self.beams]
+            cells = [f"{b.loss_cell(i)} / {b.width_e_deg[i]:.1f} / {b.width_h_deg[i]:.1f}" for b in self.beams]
             cells += [f"{p.rms_db[i]:.3f} / {p.max_db[i]:.3f} / {p.zenith_ratio[i]:.4f}" for p in self.pairs]
             lines.append(f"| {fi:g} | " + " | ".join(cells) + " |")
         return "\n".join(lines)
@@ -249,7 +261,7 @@ def compare_beams(beams: Sequence[Beam], labels: Sequence[str] | None = None, pa
         freqs = beam.freqs_mhz
         summaries.append(BeamSummary(label, str(path), fom, fom.in_lst_bins(bin_hours), upper_hemisphere_efficiency(beam),
                                      np.array([beam.beam_width_3db(x, 0.0) for x in freqs]),
-                                     np.array([beam.beam_width_3db(x, 90.0) for x in freqs])))
+                                     np.array([beam.beam_width_3db(x, 90.0) for x in freqs]), *loss_or_note(beam)))
     pairs = []
     a = summaries[0]
     for beam, s in zip(common[1:], summaries[1:]):

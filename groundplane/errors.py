@@ -20,6 +20,11 @@ class BeamFormatError(UserInputError):
     """A beam file or array that is malformed, truncated or inconsistent."""
 
 
+class GroundLossUndefined(UserInputError):
+    """A beam whose gain is not normalised to the antenna's input power: a ground loss read
+    from it would be meaningless (directivity is lossless by definition)."""
+
+
 class ShapeError(UserInputError):
     """Impossible ground-plane geometry."""
 

@@ -440,7 +440,15 @@ def narrow_band_rms(beam: Beam, degree: int = 12) -> float | None:
 def chromaticity_report(beam: Beam, settings: FomSettings = FomSettings()) -> dict[str, Any]:
     """The secondary metrics in one JSON-able dict."""
     band = (max(50.0, beam.freqs_mhz.min()), min(100.0, beam.freqs_mhz.max()))
+    from .loss import largest_in_band, loss_or_note
+
     rep: dict[str, Any] = {}
+    loss, note = loss_or_note(beam)
+    rep["ground_loss"] = loss.tolist() if loss is not None else None
+    if loss is not None:
+        rep["max_ground_loss_fit_band"] = largest_in_band(beam.freqs_mhz, loss, settings.fit_band_mhz)
+    else:
+        rep["ground_loss_note"] = note
     if (nb := narrow_band_rms(beam)) is not None:
         rep["narrow_band_rms"] = nb
     try:

@@ -159,7 +159,10 @@ def _draw_poly3(fig, spec, beams, labels) -> None:
 
 
 def _draw_widths(fig, spec, beams, labels) -> None:
-    sub = spec.subgridspec(1, 2)
+    """3 dB widths in the E and H planes, and the ground loss, against frequency."""
+    from .loss import loss_or_note
+
+    sub = spec.subgridspec(1, 3)
     for col, (phi, plane) in enumerate(((0.0, "E-plane"), (90.0, "H-plane"))):
         ax = fig.add_subplot(sub[0, col])
         for beam, lab in zip(beams, labels):
@@ -167,13 +170,28 @@ def _draw_widths(fig, spec, beams, labels) -> None:
         ax.set(title=f"3 dB beam width, {plane}", xlabel="frequency (MHz)", ylabel="full width (deg)")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
+    ax = fig.add_subplot(sub[0, 2])
+    notes = []
+    for beam, lab in zip(beams, labels):
+        loss, note = loss_or_note(beam)
+        if loss is None:
+            notes.append(f"{lab}: no ground loss (gain not normalised to input power)")
+            continue
+        ax.plot(beam.freqs_mhz, 100 * loss, "o-" if beam.freqs_mhz.size == 1 else "-", label=lab, lw=1.2, ms=3)
+    for i, text in enumerate(notes):
+        ax.text(0.02, 0.95 - 0.08 * i, text[:80], transform=ax.transAxes, fontsize=6, va="top")
+    ax.set(title="ground loss: 1 - upper-hemisphere share", xlabel="frequency (MHz)", ylabel="loss (% of input power)")
+    ax.grid(alpha=0.3)
+    if len(notes) < len(beams):
+        ax.legend(fontsize=7)
 
 
 def beam_figures(beams: Sequence, labels: Sequence[str], path: str | Path, panels: bool = False,
                  freqs: Sequence[float] | None = None) -> list[Path]:
     """The paper's beam figures for one or several beams on shared axes: gain vs elevation in
     the E and H planes, dG/dnu maps vs elevation and frequency, residuals of a 3-term
-    polynomial in frequency at zenith and 45 deg elevation, 3 dB widths vs frequency. One
+    polynomial in frequency at zenith and 45 deg elevation, 3 dB widths and the ground loss vs
+    frequency. One
     file, or with ``panels`` one per panel (``<stem>-<panel><suffix>``)."""
     plt = pyplot()
     path = check_figure_path(path)

@@ -22,6 +22,7 @@ from groundplane.beam import Beam
 from groundplane.design import Design, Soil
 from groundplane.errors import UserInputError
 from groundplane.fom import FomSettings, figure_of_merit, narrow_band_rms
+from groundplane.loss import largest_in_band, loss_or_note
 from groundplane.shapes import GroundPlane, to_dict
 from solvers.engines import ENGINES, Solver, make_solver
 from solvers.engines.base import SolveSettings
@@ -191,6 +192,7 @@ def score(candidate: Candidate, beam: Beam, settings: EvalSettings, seconds: flo
     fom_mk = float(result.lst_averaged_fom_mk)
     if not math.isfinite(fom_mk):
         raise ArithmeticError(f"candidate '{candidate.name}': FoM is not finite")
+    loss, loss_note = loss_or_note(beam)
     residuals = {}
     for h in RESIDUAL_LSTS_H:
         i = int(np.argmin(np.abs(result.lst_hours - h)))
@@ -206,6 +208,11 @@ def score(candidate: Candidate, beam: Beam, settings: EvalSettings, seconds: flo
         "lst_hours": result.lst_hours.round(6).tolist(),
         "fit_freqs_mhz": result.freqs_mhz[result.fit_mask].tolist(),
         "residuals_mk": residuals,
+        # the share of the input power the soil absorbs, per beam frequency, and its largest in the fit band
+        "ground_loss": None if loss is None else loss.round(8).tolist(),
+        "max_ground_loss": None if loss is None else largest_in_band(beam.freqs_mhz, loss, settings.fom.fit_band_mhz),
+        **({"ground_loss_note": loss_note} if loss_note else {}),
+        "freqs_mhz": beam.freqs_mhz.tolist(),
         "solve_s": round(seconds, 2),
         # what the solve cost, from the beam's own per-frequency timings: a cache hit has
         # solve_s ~ 0 but still reports this (wall time is about this over the worker count)

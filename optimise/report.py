@@ -70,13 +70,13 @@ def write_report(rows: list[dict[str, Any]], out_dir: str | Path, title: str = "
     with atomic_path(paths["csv"], suffix=".tmp.csv") as tmp, open(tmp, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["rank", "name", "status", "shape", "params", "metal_area_m2", "extent_m",
-                    "lst_averaged_fom_mk", "fom_smoothed_mk", "solve_s", "error"])
+                    "lst_averaged_fom_mk", "fom_smoothed_mk", "max_ground_loss", "solve_s", "error"])
         labels = _rank_labels(ok)
         for i, r in enumerate(rows):
             w.writerow([labels[i] if i < len(labels) else "", r["name"], r.get("status"), r.get("shape"),
                         json.dumps(r.get("params")), r.get("metal_area_m2"), r.get("extent_m"),
-                        r.get("lst_averaged_fom_mk"), r.get("fom_smoothed_mk"), r.get("solve_s"),
-                        r.get("error", "")])
+                        r.get("lst_averaged_fom_mk"), r.get("fom_smoothed_mk"), r.get("max_ground_loss"),
+                        r.get("solve_s"), r.get("error", "")])
     figs = {}
     if ok:
         figs = _figures(ok, out)
@@ -102,7 +102,8 @@ def write_report(rows: list[dict[str, Any]], out_dir: str | Path, title: str = "
 
 MESH_NOTE = ("Solved FoMs depend on the model's mesh (`groundplane study mesh-convergence` measures how much): "
              "compare candidates only at one mesh, and re-solve the best at a finer one. A '-' in the smoothed or "
-             "narrow-band column: the band has too few frequencies for their degree-12 fit in frequency (25 needed).")
+             "narrow-band column: the band has too few frequencies for their degree-12 fit in frequency (25 needed); "
+             "in the ground-loss column: the beam's gain is not normalised to its input power (an imported table).")
 
 
 def _params(r: dict[str, Any]) -> str:
@@ -126,13 +127,15 @@ def _rank_labels(ok: list[dict[str, Any]]) -> list[str]:
 def _ranking(ok: list[dict[str, Any]]) -> tuple[list[str], list[list[str]]]:
     """The ranking table, once, for both the markdown and the HTML report."""
     header = ["rank", "candidate", "shape", "parameters", "metal area (m^2)", "extent (m)",
-              "LST-averaged FoM (mK)", "FoM, G(nu) smoothed (mK)", "narrow-band rms", "solve (s)"]
+              "LST-averaged FoM (mK)", "FoM, G(nu) smoothed (mK)", "narrow-band rms", "largest ground loss in the "
+              "fit band (%)", "solve (s)"]
     cells = []
     for label, r in zip(_rank_labels(ok), ok):
+        loss = r.get("max_ground_loss")
         cells.append([label, r["name"], str(r.get("shape")), _params(r), cell(r.get("metal_area_m2")),
                       cell(r.get("extent_m")), f"{r['lst_averaged_fom_mk']:.1f}", cell(r.get("fom_smoothed_mk")),
                       "-" if r.get("narrow_band_rms") is None else f"{r['narrow_band_rms']:.1e}",
-                      cell(r.get("solve_s"), 0)])
+                      "-" if loss is None else f"{100 * loss:.3f}", cell(r.get("solve_s"), 0)])
     return header, cells
 
 

@@ -3,7 +3,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
+
+import numpy as np
 
 from .. import shapes as sh
 from ..fom import FomSettings
@@ -52,9 +55,17 @@ def _run_fom(args: argparse.Namespace) -> int:
 
         fom_figure([result], [Path(str(args.paths[0])).name], args.plot)
     report = chromaticity_report(beam, settings) if args.metrics else None
+    from ..loss import largest_in_band, loss_or_note
+
+    loss, note = loss_or_note(beam)
     if args.json:
         out = result.as_json()
         out["beam"] = dict(beam.meta)
+        out["ground_loss"] = None if loss is None else loss.tolist()
+        out["max_ground_loss_fit_band"] = (None if loss is None else
+                                           largest_in_band(beam.freqs_mhz, loss, settings.fit_band_mhz))
+        if note:
+            out["ground_loss_note"] = note
         if report is not None:
             out["chromaticity"] = report
         print(json.dumps(out))
@@ -65,11 +76,75 @@ def _run_fom(args: argparse.Namespace) -> int:
           f"max {result.fom.max() * 1e3:.1f} mK at LST {result.lst_hours[result.fom.argmax()]:.1f} h; "
           f"fit {settings.fit_band_mhz[0]:g}-{settings.fit_band_mhz[1]:g} MHz, {settings.n_terms}-term LinLog"
           + (f", spectra averaged in {settings.lst_bin_hours:g} h LST bins" if settings.lst_bin_hours else ""))
+    if args.metrics:
+        print("  " + loss_line(beam, loss, note, settings.fit_band_mhz))
     for k, v in (report or {}).get("gain_poly3_residuals", {}).items():
         if isinstance(v, dict):
             print(f"  3-term poly residual p-p of G at {k}: {v['peak_to_peak']:.4f}")
     if args.plot:
         print(f"  plot: {args.plot}")
+    return 0
+
+
+def loss_line(beam, loss, note: str | None, band: tuple[float, float]) -> str:
+    """One line: the ground loss at the band's ends and middle and its largest in ``band``, or why there is none."""
+    from ..loss import largest_in_band
+
+    if loss is None:
+        return f"ground loss: none ({note})"
+    f = beam.freqs_mhz
+    picks = sorted({0, len(f) // 2, len(f) - 1})
+    at = ", ".join(f"{100 * loss[i]:.3f} % at {f[i]:g} MHz" for i in picks)
+    return f"ground loss: {at}; largest in {band[0]:g}-{band[1]:g} MHz {100 * largest_in_band(f, loss, band):.3f} %"
+
+
+@command("loss", "ground loss per frequency of beam file(s): 1 - the upper hemisphere's integral of G / 4 pi; "
+         "-o writes the two-column table (MHz, fraction) the EDGES pipeline reads")
+def _setup_loss(p: argparse.ArgumentParser):
+    p.add_argument("paths", nargs="+", metavar="BEAM", help="beam file(s), each one beam")
+    p.add_argument("--format", default="auto", choices=_format_choices(), help="beam file format (default: detect)")
+    p.add_argument("-o", "--output", metavar="FILE.txt", help="write the loss table of the (one) beam here: '#' "
+                   "header lines, then frequency (MHz) and loss (fraction) per line")
+    p.add_argument("--json", action="store_true", help="print a JSON object")
+    return _run_loss
+
+
+def _run_loss(args: argparse.Namespace) -> int:
+    from ..files import check_output
+    from ..loss import loss_or_note, write_loss_table
+    from . import invocation
+
+    if args.output and len(args.paths) != 1:
+        raise CLIError(f"-o writes one beam's table; got {len(args.paths)} beams")
+    note_out = check_output(args.output) if args.output else ""
+    beams = _beams_of(args.paths, args.format)
+    found = [loss_or_note(b) for b in beams]
+    labels = _unique_labels(args.paths)
+    if all(loss is None for loss, _ in found):  # nothing to print but why
+        raise CLIError("; ".join(note for _, note in found))
+    if args.output:
+        write_loss_table(args.output, beams[0], invocation())
+    if args.json:
+        print(json.dumps([{"beam": lab, "freqs_mhz": b.freqs_mhz.tolist(), "gain_normalisation": b.gain_normalisation,
+                           "ground_loss": None if loss is None else loss.tolist(), "note": note}
+                          for lab, b, (loss, note) in zip(labels, beams, found)]))
+    else:
+        for lab, (loss, note) in zip(labels, found):
+            if note:
+                print(f"groundplane loss: {lab}: no ground loss: {note}", file=sys.stderr)
+        shown = [(lab, b, loss) for lab, b, (loss, _) in zip(labels, beams, found) if loss is not None]
+        if shown:
+            print("| MHz | " + " | ".join(f"{lab} loss (%)" for lab, _, _ in shown) + " |")
+            print("|---|" + "---|" * len(shown))
+            freqs = sorted({round(float(f), 6) for _, b, _ in shown for f in b.freqs_mhz})
+            for f in freqs:
+                cells = []
+                for _, b, loss in shown:
+                    i = np.flatnonzero(np.isclose(b.freqs_mhz, f, atol=1e-6))
+                    cells.append(f"{100 * loss[i[0]]:.4f}" if i.size else "-")
+                print(f"| {f:g} | " + " | ".join(cells) + " |")
+    if args.output:
+        print(f"wrote {args.output}{note_out}", file=sys.stderr)
     return 0
 
 

@@ -387,6 +387,7 @@ class FrequencySolver:
         return Beam(freqs, np.arange(91.0), np.arange(360.0), gains, {
             "source": f"{self.name} solve of {design.label()}",
             "solver": self.name,
+            "gain_normalisation": "input_power",  # every engine's gain is 4 pi U / P_in (NEC's calibrated so)
             "engine": self.engine_identity(),
             "design": json.loads(design.canonical()),
             "mesh": self.settings.as_dict(),

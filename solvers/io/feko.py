@@ -118,7 +118,8 @@ def read_ffe(path: str | Path) -> Beam:
         freqs.append(b["freq_mhz"])
         grids.append(samples_to_grid(theta, phi, gain, f"{path} at {b['freq_mhz']:g} MHz"))
     # Every block must cover the same directions before stacking.
-    meta = {"format": "feko-ffe", "solver": "FEKO", "quantity": blocks[0]["result"] or "Gain"}
+    gcols = {next((c for c in _GAIN_COLUMNS if c in b["columns"]), None) for b in blocks}
+    meta = {"format": "feko-ffe", "solver": "FEKO", "quantity": gcols.pop() if len(gcols) == 1 else "mixed columns"}
     if axis is not None:
         meta["excitation_axis_deg"] = axis
     return assemble(freqs, grids, str(path), meta)
