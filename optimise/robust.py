@@ -5,7 +5,6 @@ across the whole grid. Soil is uncertain at every site, and it changes with rain
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import replace
 from pathlib import Path
 from typing import Any, Callable
@@ -21,6 +20,7 @@ from groundplane.shapes import GroundPlane
 from .evaluate import Candidate, EvalSettings, evaluate
 from .provenance import header
 from .report import cell
+from .scenarios import NO_CONSTRAINTS, scenario_evaluator, soil_set
 from .search import OptimiseResult, best_plane, optimise
 
 # the corners of the paper's section 5 ranges (eps_r 2.5-5, sigma 0.005-0.05 S/m) and the MRO soil
@@ -32,23 +32,13 @@ Evaluate = Callable[[Candidate, EvalSettings], dict[str, Any]]
 
 
 def over_soils(evaluate_fn: Evaluate, soils: tuple[Soil, ...], mode: str) -> Evaluate:
-    """An objective that scores a candidate on every soil and returns their mean or worst as
-    its FoM (the per-soil FoMs in ``per_soil_mk``); failed on any soil is failed."""
+    """An objective that scores a candidate on every soil (each by ``evaluate_fn``) and returns
+    their mean or worst as its FoM (the per-soil FoMs in ``per_member_mk``): the scenario
+    module's evaluation of a soil set; failed on any soil is failed."""
     if mode not in MODES:
         raise UserInputError(f"--robust {mode}: choose one of {', '.join(MODES)}")
-
-    def ev(candidate: Candidate, settings: EvalSettings) -> dict[str, Any]:
-        foms = []
-        for soil in soils:
-            row = evaluate_fn(candidate, replace(settings, soil=soil))
-            fom = row.get("lst_averaged_fom_mk")
-            if row.get("status") != "ok" or fom is None or not math.isfinite(fom):
-                return {"status": "failed", "error": f"on soil eps_r {soil.eps_r:g}, sigma {soil.sigma:g}: "
-                                                     f"{row.get('error', 'no FoM')}"}
-            foms.append(float(fom))
-        return {"status": "ok", "lst_averaged_fom_mk": MODES[mode](foms), "per_soil_mk": foms}
-
-    return ev
+    return scenario_evaluator(soil_set(soils, {"mean": "mean", "max": "worst"}[mode]), NO_CONSTRAINTS,
+                              member_fn=evaluate_fn)
 
 
 def robust_study(shape: str, max_area: float, settings: EvalSettings, out_dir: str | Path, *, budget: int,

@@ -17,7 +17,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable
+from typing import TYPE_CHECKING, Any, Callable, Iterable
 
 import numpy as np
 
@@ -26,6 +26,9 @@ from groundplane.files import append_jsonl, atomic_path, read_jsonl
 from groundplane.shapes import SHAPES, GroundPlane
 
 from .evaluate import Candidate, EvalSettings, evaluate
+
+if TYPE_CHECKING:
+    from .scenarios import Constraints, ScenarioSet
 
 CONSTRAINED_ALGORITHMS = ("LN_COBYLA", "GN_ISRES", "GN_ORIG_DIRECT", "GN_ORIG_DIRECT_L")
 
@@ -142,6 +145,8 @@ class OptimiseResult:
     history: list[dict[str, Any]]
     out_dir: Path
     confirmed: list[dict[str, Any]] = field(default_factory=list)
+    closest: dict[str, Any] | None = None  # with no feasible design: the one that broke the constraints least
+    stopping: dict[str, Any] = field(default_factory=dict)  # solves, where the best was found, flat over the last half
 
 
 def smallest_feature(plane: GroundPlane) -> tuple[float, float]:
@@ -226,8 +231,8 @@ def _confirm(ev: "_Evaluator", fine: EvalSettings, out: Path, top: int, progress
     done = {History.key(r["integer"], r["x"]): r for r in read_jsonl(out / "confirm.jsonl")
             if r.get("confirm_level") == level}  # a rerun at another level re-solves
     # history rows are distinct designs already (a replayed x is never added twice)
-    picked = sorted((r for r in ev.hist.rows if r["status"] == "ok" and r["area_m2"] <= ev.max_area * (1 + 1e-9)),
-                    key=lambda r: r["fom_mk"])[:top]
+    picked = sorted((r for r in ev.counted if r["status"] == "ok" and r.get("feasible", True)
+                     and r["area_m2"] <= ev.max_area * (1 + 1e-9)), key=lambda r: r["fom_mk"])[:top]
     rows = []
     for i, r in enumerate(picked, 1):
         k = History.key(r["integer"], r["x"])
@@ -237,7 +242,11 @@ def _confirm(ev: "_Evaluator", fine: EvalSettings, out: Path, top: int, progress
                       f"({r['fom_mk']:.1f} mK at the search level)", file=sys.stderr, flush=True)
             res = ev.evaluate_fn(Candidate(f"{ev.shape}-confirm-{i}", plane=row_plane(ev.fam, r)), fine)
             fom = res.get("lst_averaged_fom_mk") if res.get("status") == "ok" else None
-            done[k] = {**r, "search_fom_mk": r["fom_mk"], "fom_mk": fom, "confirmed_at": fine.spacing,
+            loss = res.get("max_loss", res.get("max_ground_loss"))
+            kept = {key: res[key] for key in SCENARIO_FIELDS if key in res}
+            broken = ev.constraints.violations(loss, res.get("loss_spread")) if ev.constraints is not None else []
+            done[k] = {**r, **kept, "search_fom_mk": r["fom_mk"], "search_max_loss": r.get("max_loss"), "fom_mk": fom,
+                       "max_loss": loss, "feasible": not broken, "violations": broken, "confirmed_at": fine.spacing,
                        "confirm_level": level, "status": "ok" if fom is not None else "failed"}
             append_jsonl(out / "confirm.jsonl", done[k])
         rows.append(done[k])
@@ -269,6 +278,9 @@ def optimise(
     scheduler: str | None = None,
     objective: dict[str, Any] | None = None,
     seeds: dict[str, GroundPlane] | None = None,
+    scenarios: "ScenarioSet | None" = None,
+    constraints: "Constraints | None" = None,
+    max_budget: int | None = None,
 ) -> OptimiseResult:
     """Minimise the LST-averaged FoM of ``shape`` with metal area <= ``max_area`` (m^2), in at
     most ``budget`` solves (designs that are invalid or over the budget cost none).
@@ -282,34 +294,83 @@ def optimise(
     The best ``confirm_top`` are re-solved at ``confirm_mesh`` (or with ``confirm_settings``)
     and the answer is the best there. ``objective`` names what ``evaluate_fn`` returns when it
     is not the plain FoM (e.g. the mean over soils), so a resume refuses another one. ``seeds``:
-    more named designs the global search scores first (before the presets).
+    more named designs the global search scores first (before the presets). ``scenarios``: each
+    design is scored on every member of the set (its aggregate the objective) unless
+    ``evaluate_fn`` is given; ``constraints`` (ground loss, its spread) make a design that breaks
+    them infeasible: never the answer, and a constraint of the local refinement. After
+    ``budget`` solves the search goes on, refining from its best, until the best so far was found
+    in the first half of the solves (``stopping``) or ``max_budget`` is spent (default ``budget``: no
+    more; ``stopping`` says either way whether the best so far is flat over the last half).
     Raises UserInputError for a family, budget or algorithm that cannot work."""
+    from .scenarios import NO_CONSTRAINTS, scenario_evaluator
+
     fam = family(shape)
     ints = integer_choices(fam, integer_values)
     _check_request(max_area, algorithm, budget, strategy, fam, ints, seeds)
     settings.check_scorable()
+    constraints = constraints or NO_CONSTRAINTS
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    if scenarios is not None:
+        objective = {**(objective or {}), "scenarios": scenarios.identity()}
+    if constraints != NO_CONSTRAINTS:
+        objective = {**(objective or {}), "constraints": constraints.identity()}
     extra = {**({"strategy": strategy} if strategy != "local" else {}), **({"objective": objective} if objective else {})}
     same_search(out, {"shape": shape, "max_area": max_area, "settings": settings.identity(), **extra})
-    ev = _Evaluator(fam, shape, max_area, settings, History(out / "history.jsonl"),
-                    evaluate_fn or (lambda c, s: evaluate(c, s, progress=progress)), progress, budget=budget)
+    if evaluate_fn is None:
+        evaluate_fn = (scenario_evaluator(scenarios, constraints, progress) if scenarios is not None
+                       else (lambda c, s: evaluate(c, s, progress=progress)))
+    ev = _Evaluator(fam, shape, max_area, settings, History(out / "history.jsonl"), evaluate_fn, progress,
+                    budget=budget, constraints=constraints)
     if strategy == "global":
         _global_search(fam, ints, ev, algorithm, out, executor, scheduler, seeds)
     else:
         _local_search(fam, ints, ev, algorithm)
-    ok = [r for r in ev.hist.rows if r["status"] == "ok" and r["area_m2"] <= max_area * (1 + 1e-9)]
-    best = min(ok, key=lambda r: r["fom_mk"]) if ok else None
+    stopping = _until_flat(fam, ev, algorithm, max(budget, max_budget or budget))
+    best = ev.best()
     confirmed: list[dict[str, Any]] = []
     if best is not None and (confirm_mesh or confirm_settings):
         fine = confirm_settings or settings.with_spacing(confirm_mesh)  # type: ignore[arg-type]
         confirmed = _confirm(ev, fine, out, confirm_top, progress)
-        held = [r for r in confirmed if r["status"] == "ok"]
+        held = [r for r in confirmed if r["status"] == "ok" and r.get("feasible", True)]
         if held:
             best = min(held, key=lambda r: r["fom_mk"])
     with atomic_path(out / "best.json", suffix=".tmp.json") as tmp:
         tmp.write_text(json.dumps(best, indent=1))
-    return OptimiseResult(best, ev.hist.rows, out, confirmed)
+    return OptimiseResult(best, ev.hist.rows, out, confirmed, None if best else ev.closest(), stopping)
+
+
+def flat_over_last_half(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The stopping rule, from a search's rows in order: the solves, the solve at which the best
+    feasible objective so far was last improved, and whether that lies in the first half (the
+    second half found nothing better)."""
+    solved = [r for r in rows if r["status"] in ("ok", "failed")]
+    best, at = math.inf, 0
+    for i, r in enumerate(solved, 1):
+        if r["status"] == "ok" and r.get("feasible", True) and r["fom_mk"] < best:
+            best, at = r["fom_mk"], i
+    return {"solves": len(solved), "best_at": at, "flat": bool(solved) and at > 0 and at <= len(solved) / 2}
+
+
+def _until_flat(fam: Family, ev: "_Evaluator", algorithm: str, max_budget: int) -> dict[str, Any]:
+    """Go on refining from the best design, half the solves so far at a time, until the best so
+    far lies in the first half of the solves or ``max_budget`` solves are spent."""
+    state = flat_over_last_half(ev.counted)  # as counted, so a resumed search decides as the first run did
+    k = 0
+    while not state["flat"] and ev.solves < max_budget:
+        best = ev.best()
+        if best is None:
+            break
+        k += 1
+        more = min(max_budget, max(ev.solves + 1, 2 * state["best_at"])) - ev.solves
+        ev.budget = ev.solves + more
+        before = ev.solves
+        _run_nlopt(fam, best["integer"], ev, algorithm, ev.solves + more, ev.max_area, ev.progress,
+                   x0=np.array(best["x"]), phase=f"until-flat-{k}")
+        if ev.solves == before:  # nlopt converged at once: nothing new to try from here
+            break
+        state = flat_over_last_half(ev.counted)
+    return {**state, "max_budget": max_budget}
 
 
 def integer_choices(fam: Family, integer_values: Iterable[int] | None) -> tuple:
@@ -412,8 +473,10 @@ def _global_search(fam: Family, ints: tuple, ev: "_Evaluator", algorithm: str, o
             break
         ev(x, np.zeros(0), n, phase="seed" if plane is not None else "explore", plane=plane, name=name)
     # from the exploration's rows only: a resumed search's history also holds the refinements
-    ok = sorted((r for r in ev.hist.rows if r["status"] == "ok" and r.get("phase") in ("seed", "explore")),
-                key=lambda r: r["fom_mk"])
+    # feasible designs first (by FoM), then the rest by how little they break the constraints
+    ok = sorted((r for r in ev.counted if r["status"] == "ok" and r.get("phase") in ("seed", "explore")),
+                key=lambda r: (not r.get("feasible", True), max(r.get("margins") or [0.0]) if not r.get("feasible", True)
+                               else 0.0, r["fom_mk"]))
     starts = list({History.key(r["integer"], r["x"]): r for r in ok}.values())[:REFINE_STARTS]
     for i, r in enumerate(starts):
         left = ev.budget - ev.solves
@@ -438,6 +501,9 @@ def _presolve(designs: list, ev: "_Evaluator", out: Path, executor: str, schedul
     run_sweep(todo, ev.settings, out / "explore", executor=executor, scheduler=scheduler, progress=ev.progress)
 
 
+SCENARIO_FIELDS = ("per_member_mk", "mean_fom_mk", "worst_fom_mk", "nominal_fom_mk", "loss_spread", "aggregate")
+
+
 class BudgetSpent(Exception):
     """The search has used its solves."""
 
@@ -455,9 +521,31 @@ class _Evaluator:
     evaluate_fn: Callable[[Candidate, EvalSettings], dict[str, Any]]
     progress: bool
     budget: int = 10 ** 9
+    constraints: Any = None  # scenarios.Constraints (None: none)
     penalty_floor: float = 1.0e4  # mK: far above any real FoM, and finite
     solves: int = 0
     _replayed: set = field(default_factory=set)
+    counted: list = field(default_factory=list)  # the solved rows in the order this search counted them
+
+    def best(self) -> dict[str, Any] | None:
+        """The feasible solved row with the lowest FoM within the budget (None: none), of the rows
+        this search has counted (a history may hold more, from a run with a larger budget)."""
+        ok = [r for r in self.counted if r["status"] == "ok" and r.get("feasible", True)
+              and r["area_m2"] <= self.max_area * (1 + 1e-9)]
+        return min(ok, key=lambda r: r["fom_mk"]) if ok else None
+
+    def closest(self) -> dict[str, Any] | None:
+        """With no feasible row: the solved row whose constraints are broken least (relative)."""
+        ok = [r for r in self.counted if r["status"] == "ok" and r["area_m2"] <= self.max_area * (1 + 1e-9)]
+        return min(ok, key=lambda r: (max(r.get("margins") or [0.0]), r["fom_mk"])) if ok else None
+
+    def margins(self, n: int | None, x) -> list[float]:
+        """Each constraint's relative margin at x (<= 0 when met); 0 where x has no solved row."""
+        if self.constraints is None:
+            return []
+        r = self.hist.get(n, x)
+        width = len(self.constraints.margin(None, None))
+        return list(r["margins"]) if r is not None and r.get("margins") else [0.0] * width
 
     @property
     def solver(self):
@@ -478,6 +566,7 @@ class _Evaluator:
             key = History.key(n, x)
             if seen["status"] in ("ok", "failed") and key not in self._replayed:
                 self._replayed.add(key)
+                self.counted.append(seen)
                 self.solves += 1
             return float(seen["objective"])
         why = self.reason(x, n)
@@ -490,6 +579,7 @@ class _Evaluator:
         if row["status"] in ("ok", "failed"):
             self.solves += 1
             self._replayed.add(History.key(n, x))
+            self.counted.append(row)
         row["objective"] = row["fom_mk"] if row["status"] == "ok" else self.penalty()
         row["seconds"] = round(time.perf_counter() - t0, 2)
         self.hist.add(row)
@@ -523,8 +613,15 @@ class _Evaluator:
         res = self.evaluate_fn(Candidate(name or f"{self.shape}-{len(self.hist.rows)}", plane=plane), self.settings)
         fom = res.get("lst_averaged_fom_mk")
         if res.get("status") == "ok" and fom is not None and math.isfinite(fom):
-            kept = {k: res[k] for k in ("per_soil_mk",) if k in res}  # a robust objective's FoM on each soil
-            return {"status": "ok", "fom_mk": float(fom), "name": name or plane.describe(), **kept}
+            kept = {k: res[k] for k in SCENARIO_FIELDS if k in res}  # a scenario objective's members and loss
+            loss = res.get("max_loss", res.get("max_ground_loss"))
+            feas = {}
+            if self.constraints is not None:
+                broken = self.constraints.violations(loss, res.get("loss_spread"))
+                feas = {"feasible": not broken, "violations": broken,
+                        "margins": self.constraints.margin(loss, res.get("loss_spread"))}
+            return {"status": "ok", "fom_mk": float(fom), "name": name or plane.describe(), "max_loss": loss, **kept,
+                    **feas}
         return {"status": "failed", "fom_mk": None, "error": str(res.get("error", "non-finite FoM"))}
 
 
@@ -539,12 +636,24 @@ def _run_nlopt(fam: Family, n: int | None, ev: _Evaluator, algorithm: str, stop_
     opt.set_upper_bounds(list(fam.upper))
 
     def objective(x, g):
-        if ev.solves >= stop_at_solves and ev.hist.get(n, x) is None and ev.reason(x, n) is None:
-            raise nlopt.ForcedStop  # this run's solves are spent
+        # this run's solves are spent: stop before any design that would count as a solve, replayed or not
+        # (a rerun then stops where the first run did, even at designs a later phase solved)
+        if ev.solves >= stop_at_solves and History.key(n, x) not in ev._replayed and ev.reason(x, n) is None:
+            raise nlopt.ForcedStop
         return ev(x, g, n, phase=phase)
+
+    def loss_margin(i: int):
+        def margin(x, g):  # the same design's row as the objective's (solved by whichever nlopt asks first)
+            _zero(g)
+            if History.key(n, x) not in ev._replayed and ev.reason(x, n) is None:
+                objective(x, np.zeros(0))
+            return ev.margins(n, x)[i]
+        return margin
 
     opt.set_min_objective(objective)
     opt.add_inequality_constraint(lambda x, g: _zero(g) + fam.area(x, n) - max_area, 1e-6 * max_area)
+    for i in range(len(ev.margins(n, x0 if x0 is not None else fam.start(max_area, n)))):
+        opt.add_inequality_constraint(loss_margin(i), 1e-3)
     x0 = np.clip(fam.start(max_area, n) if x0 is None else x0, fam.lower, fam.upper)
     for i in range(len(fam.validity(x0, n))):
         opt.add_inequality_constraint(lambda x, g, i=i: _zero(g) + fam.validity(x, n)[i], 1e-9)

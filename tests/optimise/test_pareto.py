@@ -120,7 +120,7 @@ def test_robust_search_minimises_over_the_soils_and_reports_both(tmp_path):
                                           progress=False, compare={"square-19": Square(19.0)})
     assert len(table) == len(SOIL_GRID) == 5
     history = [json.loads(line) for line in (tmp_path / "robust" / "history.jsonl").read_text().splitlines()]
-    assert all(len(r["per_soil_mk"]) == 5 for r in history if r["status"] == "ok")  # each soil's FoM is kept
+    assert all(len(r["per_member_mk"]) == 5 for r in history if r["status"] == "ok")  # each soil's FoM is kept
     mean = {w: np.mean([r[f"{w}_fom_mk"] for r in table]) for w in ("nominal", "robust")}
     assert mean["robust"] <= mean["nominal"] + 1e-6
     md = write_robust_report("square", 400.0, "mean", nominal, robust, table, tmp_path / "robust.md", "test",
