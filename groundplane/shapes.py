@@ -34,7 +34,7 @@ from shapely.validation import explain_validity
 from .errors import ShapeError
 
 __all__ = ["GroundPlane", "ShapeError", "Param", "param", "SHAPES", "PRESETS", "preset", "from_dict", "to_dict",
-           "Square", "Plus", "Sawtooth", "RegularPolygon", "Star", "PolygonPlane"]
+           "Square", "Plus", "Sawtooth", "Teeth", "TeethXY", "RegularPolygon", "Star", "PolygonPlane"]
 
 SHAPES: dict[str, type["GroundPlane"]] = {}
 """Every registered shape family, by kind (filled by ``GroundPlane.__init_subclass__``)."""
@@ -440,6 +440,121 @@ class Teeth(GroundPlane, kind="teeth"):
         if isinstance(plane, Square):
             return cls(plane.side, 1, 0.5 * plane.side, 0.0, 0.0)
         return None
+
+
+def _tooth(centre: float, base: float, height: float, tip: float) -> list[tuple[float, float]]:
+    """A symmetric tooth on a side, in (along, out) coordinates: its base corners and tip corners."""
+    return [(centre - base / 2, 0.0), (centre - tip / 2, height), (centre + tip / 2, height), (centre + base / 2, 0.0)]
+
+
+class TeethXY(GroundPlane, kind="teeth-xy"):
+    """The optimiser's richest family: a square core of side ``side`` with its corners cut at 45
+    deg by ``chamfer``; ``teeth_per_side`` trapezoidal teeth on each side, those on the two sides
+    facing +-x (pointing along the excitation axis, the E-plane) and those facing +-y (the H-plane)
+    each with their own base, height and tip fraction; and one tooth on each chamfered corner
+    (``base_d``, ``height_d``, ``tip_d``; base or height 0: none). Crosses (one rectangular tooth a
+    side, arms along and across the axis of their own length), tapered crosses, four- and
+    eight-pointed stars on a chamfered core, sawtooth planes and squares are members; ``teeth``,
+    ``sawtooth``, ``plus`` and ``square`` planes exactly (:meth:`member`). Teeth are centred in
+    ``teeth_per_side`` equal segments of a side and must stay clear of the chamfers."""
+
+    side: float = param("side of the square core (m)", bounds=(4.0, 30.0))
+    teeth_per_side: int = param("teeth on each side (4 x this in all, besides the corner teeth)",
+                                values=(1, 2, 3, 4), minimum=1)
+    chamfer: float = param("the core's corners cut at 45 deg, this far along each side (m); 0: square corners",
+                           bounds=(0.0, 10.0), minimum=None)
+    base_x: float = param("base of each tooth on the sides facing +-x (along the excitation axis) (m)",
+                          bounds=(0.5, 15.0))
+    height_x: float = param("height of those teeth (m); 0: none", bounds=(0.0, 14.0), minimum=None)
+    tip_x: float = param("their tip as a fraction of their base: 0 a triangle, 1 a rectangle", bounds=(0.0, 1.0),
+                         minimum=None)
+    base_y: float = param("base of each tooth on the sides facing +-y (across the axis) (m)", bounds=(0.5, 15.0))
+    height_y: float = param("height of those teeth (m); 0: none", bounds=(0.0, 14.0), minimum=None)
+    tip_y: float = param("their tip as a fraction of their base", bounds=(0.0, 1.0), minimum=None)
+    base_d: float = param("base of the tooth on each chamfered corner (m); 0: none", bounds=(0.0, 14.0),
+                          minimum=None)
+    height_d: float = param("height of the corner teeth (m); 0: none", bounds=(0.0, 14.0), minimum=None)
+    tip_d: float = param("the corner teeth's tip as a fraction of their base", bounds=(0.0, 1.0), minimum=None)
+
+    def _vertices(self) -> np.ndarray:
+        h, c, n = self.side / 2, self.chamfer, int(self.teeth_per_side)
+        seg = self.side / n
+        pts: list[tuple[float, float]] = []
+        for k in range(4):  # side k: side 0 along y = -h (outward -y), the others turned k x 90 deg
+            base, height, tip = ((self.base_y, self.height_y, self.tip_y) if k % 2 == 0 else
+                                 (self.base_x, self.height_x, self.tip_x))
+            local = [(-h + c, 0.0)]
+            if height > 1e-12:
+                for i in range(n):
+                    local += _tooth(-h + (i + 0.5) * seg, base, height, tip * base)
+            local.append((h - c, 0.0))
+            ang = k * math.pi / 2
+            ca, sa = math.cos(ang), math.sin(ang)
+            for u, v in local:
+                x, y = u, -h - v
+                pts.append((x * ca - y * sa, x * sa + y * ca))
+            if c > 1e-12 and self.base_d > 1e-12 and self.height_d > 1e-12:  # the corner tooth after side k
+                edge = c * math.sqrt(2.0)
+                for u, v in _tooth(edge / 2, self.base_d, self.height_d, self.tip_d * self.base_d):
+                    # along the chamfer from (h - c, -h) toward (h, -h + c); outward (1, -1) / sqrt 2
+                    x = h - c + (u + v) / math.sqrt(2.0)
+                    y = -h + (u - v) / math.sqrt(2.0)
+                    pts.append((x * ca - y * sa, x * sa + y * ca))
+        out = np.array(pts)
+        keep = np.ones(len(out), dtype=bool)  # drop repeated points (square corners, teeth that touch)
+        keep[1:] = np.any(np.abs(np.diff(out, axis=0)) > 1e-12, axis=1)
+        out = out[keep]
+        if np.allclose(out[0], out[-1]):
+            out = out[:-1]
+        a, b = out - np.roll(out, 1, axis=0), np.roll(out, -1, axis=0) - out
+        turn = np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+        return out[turn > 1e-9 * self.side ** 2]  # a vertex on a straight edge is no corner
+
+    @classmethod
+    def area_of(cls, p: dict[str, Any]) -> float:
+        n = p["teeth_per_side"]
+        def teeth(b, hgt, t):
+            return hgt * b * (1 + t) / 2
+        return (p["side"] ** 2 - 2 * p["chamfer"] ** 2 + 2 * n * teeth(p["base_x"], p["height_x"], p["tip_x"])
+                + 2 * n * teeth(p["base_y"], p["height_y"], p["tip_y"])
+                + 4 * teeth(p["base_d"], p["height_d"], p["tip_d"]))
+
+    @classmethod
+    def constraints(cls, p: dict[str, Any]) -> list[tuple[float, str]]:
+        n, side, c = p["teeth_per_side"], p["side"], p["chamfer"]
+        out = [(-c, f"chamfer {c:g} m must be >= 0"),
+               (p["base_d"] - c * math.sqrt(2.0), f"corner teeth of base {p['base_d']:g} m do not fit a chamfer of "
+                                                  f"{c * math.sqrt(2.0):.3g} m")]
+        for axis in ("x", "y"):
+            b = p[f"base_{axis}"]
+            out.append((b + 2 * c - side / n, f"{n} teeth of base {b:g} m a side, clear of {c:g} m chamfers, need "
+                                              f"{n * (b + 2 * c):g} m but a side is {side:g} m"))
+        for name in ("height_x", "height_y", "base_d", "height_d", "tip_x", "tip_y", "tip_d"):
+            out.append((-p[name], f"{name} {p[name]:g} must be >= 0"))
+        for name in ("tip_x", "tip_y", "tip_d"):
+            out.append((p[name] - 1, f"{name} {p[name]:g} must be <= 1"))
+        return out
+
+    @classmethod
+    def optimiser_start(cls, max_area: float, integer: dict[str, int]) -> dict[str, float]:
+        # half the budget in the core, teeth filling 80 % of each side, the rest in their height
+        n = integer["teeth_per_side"]
+        side = min(30.0, math.sqrt(0.5 * max_area))
+        base = 0.8 * side / n
+        height = min(14.0, 0.3 * max_area / (4 * n * base * 0.75))
+        return {"side": side, "chamfer": 0.0, "base_x": base, "height_x": height, "tip_x": 0.5, "base_y": base,
+                "height_y": height, "tip_y": 0.5, "base_d": 0.0, "height_d": 0.0, "tip_d": 0.5}
+
+    @classmethod
+    def member(cls, plane: GroundPlane) -> "TeethXY | None":
+        """``plane`` as a member of this family, when it is one exactly (same outline)."""
+        if isinstance(plane, TeethXY):
+            return plane
+        t = Teeth.member(plane)
+        if t is None:
+            return None
+        b, hgt, tip = t.tooth_base, t.tooth_height, t.tip_fraction
+        return cls(t.side, int(t.teeth_per_side), 0.0, b, hgt, tip, b, hgt, tip, 0.0, 0.0, 0.0)
 
 
 class RegularPolygon(GroundPlane, kind="polygon-n"):

@@ -31,6 +31,24 @@ def add_eval_options(p: argparse.ArgumentParser) -> None:
     add_options(p, FomSettings, FOM_GROUP)
 
 
+SCENARIO_GROUP = ("scenarios and constraints (default: the soil set, its worst member, ground loss <= 0.5 %; "
+                  "--scenarios nominal --max-loss none is the paper's objective, what results/pareto answers)")
+
+
+def add_scenario_options(p: argparse.ArgumentParser) -> None:
+    """--scenarios, --aggregate, --max-loss, --max-loss-spread (from ScenarioOptions)."""
+    from .scenarios import ScenarioOptions
+
+    add_options(p, ScenarioOptions, SCENARIO_GROUP)
+
+
+def scenario_options(args: argparse.Namespace):
+    """The ScenarioOptions the command line gives (defaults where it gives none)."""
+    from .scenarios import ScenarioOptions
+
+    return from_args(ScenarioOptions, args)
+
+
 def eval_settings(args: argparse.Namespace) -> EvalSettings:
     """EvalSettings from the parsed command line (options not given take the dataclass defaults)."""
     from .evaluate import EvalSettings  # here: the engines load only for a command that solves
@@ -47,19 +65,31 @@ def _setup_sweep(p: argparse.ArgumentParser):
     p.add_argument("--executor", choices=["local", "dask"], default="local")
     p.add_argument("--scheduler", help="Dask scheduler address (default: a local cluster)")
     p.add_argument("--retry-failed", action="store_true", help="solve failed candidates again")
+    from .scenarios import ScenarioOptions
+
+    add_options(p, ScenarioOptions, "scenarios and constraints (over the file's [scenarios] table; a sweep without "
+                "either scores at the settings as given, with no loss limit)")
     return _run_sweep_cmd
 
 
 def _run_sweep_cmd(args: argparse.Namespace) -> int:
     from .report import write_report
-    from .sweep import load_config, run_sweep, summary_table
+    from .scenarios import ScenarioOptions, check_set, describe_set
+    from .sweep import load_config, load_scenarios, run_sweep, summary_table
 
     candidates, invalid, settings = load_config(args.config)
+    given = {o.key: getattr(args, o.key) for o in options(ScenarioOptions) if getattr(args, o.key, None) is not None}
+    opts = load_scenarios(args.config, given)
+    scenarios, constraints = (opts.set(), opts.constraints()) if opts else (None, None)
+    if scenarios is not None:
+        check_set(scenarios, settings)
     out = check_output_dir(Path(args.out) if args.out else Path.cwd() / f"sweep-{Path(args.config).stem}")
     rows = run_sweep(candidates, settings, out, invalid=invalid, executor=args.executor,
-                     scheduler=args.scheduler, retry_failed=args.retry_failed, progress=True)
+                     scheduler=args.scheduler, retry_failed=args.retry_failed, progress=True, scenarios=scenarios,
+                     constraints=constraints)
+    objective = f" Objective: {describe_set(scenarios, constraints)}." if scenarios else ""
     paths = write_report(rows, out, title=f"Sweep {Path(args.config).name}",
-                         preamble=f"Command: `{invocation()}`. Settings: {settings.describe()}.")
+                         preamble=f"Command: `{invocation()}`. Settings: {settings.describe()}.{objective}")
     print(summary_table(rows))
     print(f"report: {paths['md']}")
     failed = [r["name"] for r in rows if r.get("status") == "failed"]
@@ -113,6 +143,16 @@ def _setup_optimise(p: argparse.ArgumentParser):
                         "mesh; with --pareto the engine's default mesh, on the fit band at 1 MHz: the default "
                         "model, where the presets are scored too; 0: don't)")
     p.add_argument("--confirm-top", type=int, default=3, help="how many of the best to re-solve (default 3)")
+    p.add_argument("--max-budget", type=int, metavar="N",
+                   help="after --budget solves, go on refining from the best until the best so far lies in the first "
+                        "half of the solves (the stopping rule every report states), at most N solves in all "
+                        "(default: --budget)")
+    p.add_argument("--reference", metavar="PRESET",
+                   help="--pareto: also set every budget's answer against this preset whatever its metal "
+                        "(e.g. sawtooth-20-16), with a 15 %% bar")
+    p.add_argument("--beside", metavar="FRONT.csv", help="--pareto: draw another run's front (front.csv or pareto.csv) "
+                   "beside this one (e.g. results/pareto/pareto.csv, the nominal front)")
+    add_scenario_options(p)
     add_eval_options(p)
     p.add_argument("-o", "--out", required=True)
     return _run_optimise
@@ -125,16 +165,33 @@ def _run_pareto(args: argparse.Namespace) -> int:
 
     if any(not (a > 0) for a in args.pareto):
         raise CLIError(f"--pareto: metal budgets must be positive m^2, got {args.pareto}")
+    if args.reference:
+        from groundplane.shapes import preset
+
+        preset(args.reference)  # an unknown name refused before any solve
+    if args.beside:
+        from .pareto import read_front
+
+        try:
+            read_front(args.beside)
+        except (OSError, KeyError, ValueError) as exc:
+            raise CLIError(f"--beside {args.beside}: not a front table ({exc})") from None
     settings = eval_settings(args)
     mesh = args.confirm_mesh or getattr(settings.model.__class__(), "spacing", None)
     confirm = settings.with_solve(freqs_mhz=tuple(parse_freqs("fit-band")))
     confirm = confirm.with_spacing(mesh) if mesh else confirm
     answer = args.answer_mesh if args.answer_mesh is not None else (round(0.7 * mesh, 3) if mesh else None)
     out = Path(args.out)
+    opts = scenario_options(args)
+    scenarios, constraints = opts.set(), opts.constraints()
     front = pareto_front(args.shape, args.pareto, settings, confirm, out, budget=args.budget, answer_mesh=answer or None,
                          ladder=args.ladder, confirm_top=args.confirm_top, executor=args.executor,
-                         scheduler=args.scheduler)
-    path = write_report(front, out, invocation(), settings, confirm)
+                         scheduler=args.scheduler, scenarios=scenarios, constraints=constraints,
+                         max_budget=args.max_budget)
+    from .scenarios import describe_set
+
+    path = write_report(front, out, invocation(), settings, confirm, objective=describe_set(scenarios, constraints),
+                        reference=args.reference, beside=args.beside)
     print("\n".join(verdicts(front)))
     print(f"report: {path}")
     return 0 if all(r["fom_mk"] is not None for r in front.rows) else 1
@@ -171,6 +228,12 @@ def compare_plane(name: str):
 def _run_robust(args: argparse.Namespace, compared: dict | None = None, seeds: dict | None = None) -> int:
     from .robust import robust_study, write_robust_report
 
+    given = [f for f in ("--scenarios", "--aggregate", "--max-loss", "--max-loss-spread")
+             if getattr(args, f[2:].replace("-", "_"), None) is not None]
+    if given:
+        raise CLIError(f"--soil-grid runs its own two searches (the nominal soil, the mean or worst over the grid); "
+                       f"{', '.join(given)} is for a search on a scenario set: drop --soil-grid")
+
     settings = eval_settings(args)
     out = Path(args.out)
     spacing = settings.spacing
@@ -189,7 +252,7 @@ def _run_robust(args: argparse.Namespace, compared: dict | None = None, seeds: d
 def _run_optimise(args: argparse.Namespace) -> int:
     from groundplane.plots import pyplot
 
-    from .evaluate import Candidate, evaluate
+    from .evaluate import Candidate
     from .report import write_report
     from .search import best_plane, optimise
 
@@ -204,14 +267,21 @@ def _run_optimise(args: argparse.Namespace) -> int:
     out = Path(args.out)
     spacing = settings.spacing
     confirm = args.confirm_mesh if args.confirm_mesh is not None else (round(0.7 * spacing, 3) if spacing else None)
+    opts = scenario_options(args)
+    scenarios, constraints = opts.set(), opts.constraints()
+    from .scenarios import check_set, describe_set, scenario_evaluator
+
+    check_set(scenarios, settings)  # a member the engine cannot take: refused before any solve
     res = optimise(args.shape, args.max_area, settings, out, budget=args.budget, progress=True,
-                   confirm_mesh=confirm or None, **_search_options(args, seeds))
+                   confirm_mesh=confirm or None, scenarios=scenarios, constraints=constraints,
+                   max_budget=args.max_budget, **_search_options(args, seeds))
     if res.best and res.best.get("confirmed_at"):  # the answer and the presets at the mesh it holds at
         settings = settings.with_spacing(res.best["confirmed_at"])
-    rows = [evaluate(Candidate(name, plane=plane), settings) for name, plane in compared.items()]
-    if res.best:
-        best = best_plane(args.shape, res.best)
-        rows.append(evaluate(Candidate(f"optimised {args.shape}", plane=best), settings))
+    score = scenario_evaluator(scenarios, constraints, progress=True)
+    rows = [score(Candidate(name, plane=plane), settings) for name, plane in compared.items()]
+    if res.best or res.closest:
+        best = best_plane(args.shape, res.best or res.closest)
+        rows.append(score(Candidate(f"optimised {args.shape}", plane=best), settings))
         if args.step:
             from groundplane.cad import export_step
 
@@ -219,20 +289,35 @@ def _run_optimise(args: argparse.Namespace) -> int:
     _history_plot(pyplot(), res.history, out / "history.png", args.max_area)
     mesh = (f"the {settings.spacing:g} m mesh" + (" (re-solved there from the search's best few)"
                                                  if res.confirmed else "")) if settings.spacing else settings.engine
-    verdict = _verdict(rows, args, mesh)
+    verdict = _verdict(rows, args, mesh) + " " + stopping_sentence(res.stopping)
     paths = write_report(rows, out, title=f"Optimised {args.shape} under {args.max_area:g} m^2",
-                         preamble=f"Command: `{invocation()}`. Settings: {settings.describe()}. "
+                         preamble=f"Command: `{invocation()}`. Settings: {settings.describe()}. Objective: "
+                                  f"{describe_set(scenarios, constraints)}. "
                                   f"{len(res.history)} evaluations in history.jsonl. {verdict}")
     print(verdict)
     print(f"report: {paths['md']}")
     return 0 if res.best else 1
 
 
+def stopping_sentence(stop: dict) -> str:
+    """The stopping rule's reading, computed from the search's rows."""
+    if not stop or not stop.get("solves"):
+        return ""
+    if not stop.get("best_at"):
+        return f"No feasible design in {stop['solves']} solves."
+    return (f"The best so far was found at solve {stop['best_at']} of {stop['solves']}: "
+            + ("flat over the last half." if stop["flat"] else "**not** flat over the last half (the search had not "
+               "converged; --max-budget lets it go on)."))
+
+
 def _verdict(rows, args, mesh: str) -> str:
     ok = {r["name"]: r for r in rows if r.get("status") == "ok"}
     best = ok.get(f"optimised {args.shape}")
     if best is None:
-        return "No feasible design was scored."
+        return "No design was scored."
+    if best.get("feasible") is False:
+        return (f"No feasible {args.shape} was found; the closest, {best['lst_averaged_fom_mk']:.1f} mK at "
+                f"{best['metal_area_m2']:.1f} m^2, breaks: {'; '.join(best.get('violations', []))}.")
     text = (f"Best {args.shape}: {best['lst_averaged_fom_mk']:.1f} mK at {best['metal_area_m2']:.1f} m^2 "
             f"({json.dumps(best['params'])}), solved at {mesh}.")
     for name in args.compare:
@@ -262,6 +347,64 @@ def _history_plot(plt, history, path: Path, max_area: float) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
+
+
+@command("score", "solve a design on every member of a scenario set and score it: each member's FoM and ground "
+         "loss, the set's aggregate, the constraints and how far each uncertainty moves the FoM")
+def _setup_score(p: argparse.ArgumentParser):
+    from groundplane.cli import add_shape_options
+
+    add_shape_options(p)
+    add_scenario_options(p)
+    add_eval_options(p)
+    p.add_argument("--json", action="store_true", help="print the row as a JSON object")
+    p.add_argument("-o", "--out", help="also write report.md/.html, results.json/.csv and figures into this folder")
+    return _run_score
+
+
+def _run_score(args: argparse.Namespace) -> int:
+    from groundplane.cli import shape_from_args
+    from groundplane.errors import SolveError
+
+    from .evaluate import Candidate
+    from .report import write_report
+    from .scenarios import check_set, describe_set, evaluate_scenarios, member_table, sensitivity
+
+    plane = shape_from_args(args)
+    settings = eval_settings(args)
+    opts = scenario_options(args)
+    scenarios, constraints = opts.set(), opts.constraints()
+    settings.check_scorable()
+    check_set(scenarios, settings, plane)  # every member buildable and solvable, before any solve
+    out = check_output_dir(Path(args.out)) if args.out else None
+    name = args.preset or (Path(args.design).stem if getattr(args, "design", None) else plane.kind)
+    row = evaluate_scenarios(Candidate(name, plane=plane), settings, scenarios, constraints, progress=True)
+    if row["status"] != "ok":
+        raise SolveError(f"{name}: {row.get('error')}")
+    if out is not None:
+        write_report([row], out, title=f"{name} on the scenario set {scenarios.name}",
+                     preamble=f"Command: `{invocation()}`. Settings: {settings.describe()}. Objective: "
+                              f"{describe_set(scenarios, constraints)}.")
+    if args.json:
+        print(json.dumps(row, default=float))
+        return 0
+    print(f"{name} ({plane.metal_area:.1f} m^2) on {describe_set(scenarios, constraints)}")
+    print("\n".join(member_table(row)))
+    loss = row.get("max_loss")
+    print(f"{scenarios.aggregate} of {len(row['members'])} members: {row['lst_averaged_fom_mk']:.2f} mK (worst "
+          f"{row['worst_fom_mk']:.2f}, mean {row['mean_fom_mk']:.2f}); largest ground loss on the soil members "
+          + ("-" if loss is None else f"{100 * loss:.3f} %")
+          + ("" if row.get("loss_spread") is None else f", spread across them {100 * row['loss_spread']:.3f} %"))
+    print("meets the constraints" if row["feasible"] else "breaks: " + "; ".join(row["violations"]))
+    reference = row.get("nominal_fom_mk") or next((m["lst_averaged_fom_mk"] for m in row["members"]
+                                                  if m["member"].startswith("MRO")), None)
+    if reference:
+        print("\n".join(sensitivity(row, reference).verdicts()))
+    if row.get("skipped_members"):
+        print(f"not applicable to this design: {', '.join(row['skipped_members'])}")
+    if out is not None:
+        print(f"report: {out / 'report.md'}")
+    return 0
 
 
 @command("fabricate", "cut a design from welded wire-mesh sheets: DXF outline, sheet plan, cut list, mass")
@@ -348,6 +491,9 @@ def _setup_study(p: argparse.ArgumentParser):
                    help="tolerance: the design from a file instead of a preset (a shape JSON or an optimiser's "
                         "best.json)")
     p.add_argument("--draws", type=int, metavar="N", help="tolerance: Monte-Carlo draws per corner error (default 3)")
+    p.add_argument("--scenarios", dest="study_scenarios", metavar="SET|FILE",
+                   help="tolerance: score the design on this scenario set's members (soil, model, as-built, field or "
+                        "a TOML file) instead of the study's own as-built variants")
     add_eval_options(p)
     return _run_study_cmd
 
@@ -376,7 +522,7 @@ def _run_study_cmd(args: argparse.Namespace) -> int:
             raise CLIError("--cached-only is for soil-surface")
         extra["cached_only"] = True
     for key, flag, into in (("study_preset", "--preset", "preset_name"), ("study_design", "--design", "design"),
-                            ("draws", "--draws", "draws")):
+                            ("draws", "--draws", "draws"), ("study_scenarios", "--scenarios", "scenarios")):
         if getattr(args, key) is not None:
             if args.name != "tolerance":
                 raise CLIError(f"{flag} is for tolerance")
@@ -393,6 +539,10 @@ def _run_study_cmd(args: argparse.Namespace) -> int:
         from_file(extra["design"])  # a bad design file is refused here, before any solve
     if extra.get("draws") is not None and extra["draws"] < 1:
         raise CLIError("--draws must be >= 1")
+    if extra.get("scenarios") is not None:
+        from .scenarios import scenario_set
+
+        extra["scenarios"] = scenario_set(extra["scenarios"])  # an unknown set or a bad file: refused here
     settings = None
     if s.uses_settings:
         settings = eval_settings(args)

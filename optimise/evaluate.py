@@ -154,9 +154,11 @@ class EvalSettings:
                 + (f" averaged in {self.fom.lst_bin_hours:g} h bins" if self.fom.lst_bin_hours else ""))
 
 
-def row_key(candidate: Candidate, settings: EvalSettings) -> str:
-    """A stable key for (candidate, settings): a sweep never scores the same pair twice."""
-    blob = json.dumps({"c": candidate.identity(), "s": settings.identity()}, sort_keys=True, default=str)
+def row_key(candidate: Candidate, settings: EvalSettings, extra: dict[str, Any] | None = None) -> str:
+    """A stable key for (candidate, settings[, ``extra``: e.g. the scenario set]): a sweep never
+    scores the same pair twice."""
+    blob = json.dumps({"c": candidate.identity(), "s": settings.identity(), **({"x": extra} if extra else {})},
+                      sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:20]
 
 

@@ -29,8 +29,11 @@ from .report import cell
 from .search import OptimiseResult, best_plane, family, optimise
 
 LADDER_DESIGNS = 24  # designs scored at both levels to measure how well the cheap one ranks (>= 20)
-PARETO_COLUMNS = ("budget_m2", "area_m2", "fom_mk", "mesh_m", "design", "evaluations", "search_fom_mk",
-                  "search_mesh_m", "answer_fom_mk", "answer_mesh_m")
+PARETO_COLUMNS = ("budget_m2", "area_m2", "fom_mk", "worst_fom_mk", "mean_fom_mk", "max_loss", "loss_spread",
+                  "feasible", "violations", "mesh_m", "design", "evaluations", "best_at", "flat", "search_fom_mk",
+                  "search_mesh_m", "search_max_loss", "answer_fom_mk", "answer_max_loss", "answer_mesh_m")
+PRESET_COLUMNS = ("preset", "area_m2", "fom_mk", "worst_fom_mk", "mean_fom_mk", "max_loss", "loss_spread", "feasible",
+                  "violations")
 
 
 @dataclass
@@ -46,8 +49,22 @@ class Front:
 
 
 def _fom(candidate: Candidate, settings: EvalSettings, evaluate_fn) -> float | None:
+    return _scored(candidate, settings, evaluate_fn)["fom_mk"]
+
+
+def _scored(candidate: Candidate, settings: EvalSettings, evaluate_fn, constraints=None) -> dict[str, Any]:
+    """A design's FoM (the objective: a scenario set's aggregate, or the plain FoM), its worst and
+    mean member, ground loss and whether it meets ``constraints``, from ``evaluate_fn``."""
     row = evaluate_fn(candidate, settings)
-    return float(row["lst_averaged_fom_mk"]) if row.get("status") == "ok" else None
+    if row.get("status") != "ok":
+        return {"fom_mk": None, "worst_fom_mk": None, "mean_fom_mk": None, "max_loss": None, "loss_spread": None,
+                "feasible": None, "violations": row.get("error")}
+    fom = float(row["lst_averaged_fom_mk"])
+    loss = row.get("max_loss", row.get("max_ground_loss"))
+    broken = constraints.violations(loss, row.get("loss_spread")) if constraints is not None else []
+    return {"fom_mk": fom, "worst_fom_mk": row.get("worst_fom_mk", fom), "mean_fom_mk": row.get("mean_fom_mk", fom),
+            "max_loss": loss, "loss_spread": row.get("loss_spread"), "feasible": not broken,
+            "violations": "; ".join(broken)}
 
 
 def pec_floor_mk(settings: EvalSettings) -> float:
@@ -57,28 +74,41 @@ def pec_floor_mk(settings: EvalSettings) -> float:
     return float(figure_of_merit(beam, settings.fom).lst_averaged_fom_mk)
 
 
-def preset_rows(confirm: EvalSettings, evaluate_fn, floor: Callable[[EvalSettings], float] = pec_floor_mk) -> list[dict]:
-    """The nine Table 3 presets (and ``extended``) and the PEC floor (area 0) at the confirm level."""
-    rows = [{"preset": name, "area_m2": plane.metal_area, "fom_mk": _fom(Candidate(name, plane=plane), confirm, evaluate_fn)}
-            for name, plane in PRESETS.items()]
-    return rows + [{"preset": "pec", "area_m2": 0.0, "fom_mk": floor(confirm)}]
+def preset_rows(confirm: EvalSettings, evaluate_fn, floor: Callable[[EvalSettings], float] = pec_floor_mk,
+                constraints=None) -> list[dict]:
+    """The nine Table 3 presets (and ``extended``) and the PEC floor (area 0) at the confirm level,
+    each with its worst and mean member, ground loss and constraints (the blade over PEC loses
+    nothing and is the same on every soil)."""
+    rows = [{"preset": name, "area_m2": plane.metal_area,
+             **_scored(Candidate(name, plane=plane), confirm, evaluate_fn, constraints)} for name, plane in PRESETS.items()]
+    pec = floor(confirm)
+    return rows + [{"preset": "pec", "area_m2": 0.0, "fom_mk": pec, "worst_fom_mk": pec, "mean_fom_mk": pec,
+                    "max_loss": 0.0, "loss_spread": 0.0, "feasible": True, "violations": ""}]
 
 
 def _answer(shape: str, budget_m2: float, res: OptimiseResult, confirm: EvalSettings, answer_mesh: float | None,
-            evaluate_fn) -> dict[str, Any]:
-    """One budget's row: its best (confirmed) design, and that design at the answer mesh."""
-    best = res.best
-    solves = sum(1 for r in res.history if r["status"] in ("ok", "failed"))
+            evaluate_fn, constraints=None) -> dict[str, Any]:
+    """One budget's row: its best (confirmed) design, and that design at the answer mesh; with no
+    feasible design, the one that came closest (``feasible`` False, and what it breaks)."""
+    best = res.best or res.closest
+    stop = res.stopping or {}
+    solves = stop.get("solves", sum(1 for r in res.history if r["status"] in ("ok", "failed")))
+    head = {"budget_m2": budget_m2, "evaluations": solves, "best_at": stop.get("best_at"), "flat": stop.get("flat")}
     if best is None:
-        return {"budget_m2": budget_m2, "area_m2": None, "fom_mk": None, "mesh_m": confirm.spacing, "design": None,
-                "evaluations": solves}
+        return {**head, "area_m2": None, "fom_mk": None, "mesh_m": confirm.spacing, "design": None}
     plane = best_plane(shape, best)
-    answer = _fom(Candidate(f"{shape}-answer-{budget_m2:g}", plane=plane), confirm.with_spacing(answer_mesh),
-                  evaluate_fn) if answer_mesh else None
-    return {"budget_m2": budget_m2, "area_m2": round(plane.metal_area, 3), "fom_mk": best["fom_mk"],
-            "mesh_m": best.get("confirmed_at", best.get("mesh_m")), "design": json.dumps(to_dict(family(shape).cls.member(plane))),
-            "evaluations": solves, "search_fom_mk": best.get("search_fom_mk", best["fom_mk"]),
-            "search_mesh_m": best.get("mesh_m"), "answer_fom_mk": answer, "answer_mesh_m": answer_mesh}
+    answer = (_scored(Candidate(f"{shape}-answer-{budget_m2:g}", plane=plane), confirm.with_spacing(answer_mesh),
+                      evaluate_fn, constraints) if answer_mesh else {})
+    return {**head, "area_m2": round(plane.metal_area, 3), "fom_mk": best["fom_mk"],
+            "worst_fom_mk": best.get("worst_fom_mk", best["fom_mk"]), "mean_fom_mk": best.get("mean_fom_mk", best["fom_mk"]),
+            "max_loss": best.get("max_loss"), "loss_spread": best.get("loss_spread"),
+            "feasible": best.get("feasible", True) and res.best is not None,
+            "violations": "; ".join(best.get("violations") or []),
+            "mesh_m": best.get("confirmed_at", best.get("mesh_m")),
+            "design": json.dumps(to_dict(family(shape).cls.member(plane))),
+            "search_fom_mk": best.get("search_fom_mk", best["fom_mk"]), "search_mesh_m": best.get("mesh_m"),
+            "search_max_loss": best.get("search_max_loss", best.get("max_loss")),
+            "answer_fom_mk": answer.get("fom_mk"), "answer_max_loss": answer.get("max_loss"), "answer_mesh_m": answer_mesh}
 
 
 def fidelity_ladder(shape: str, results: dict[float, OptimiseResult], confirm: EvalSettings, evaluate_fn,
@@ -112,12 +142,19 @@ def pareto_front(shape: str, budgets: list[float], settings: EvalSettings, confi
                  *, budget: int = 40, answer_mesh: float | None = None, ladder: int = LADDER_DESIGNS, confirm_top: int = 3,
                  evaluate_fn: Callable[[Candidate, EvalSettings], dict[str, Any]] | None = None,
                  executor: str = "local", scheduler: str | None = None, progress: bool = True,
-                 floor: Callable[[EvalSettings], float] = pec_floor_mk) -> Front:
+                 floor: Callable[[EvalSettings], float] = pec_floor_mk, scenarios=None, constraints=None,
+                 max_budget: int | None = None) -> Front:
     """Search ``shape`` at each metal budget (``out/budget-<A>/``, each resumable; a design met
-    again is a cache hit), confirm, answer; then the presets, the floor and the ladder."""
+    again is a cache hit), confirm, answer; then the presets, the floor and the ladder. With
+    ``scenarios`` every design is scored on each member (the set's aggregate the objective) and
+    ``constraints`` decide which designs can be an answer."""
+    from .scenarios import scenario_evaluator
+
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    evaluate_fn = evaluate_fn or (lambda c, s: evaluate(c, s, progress=progress))
+    if evaluate_fn is None:
+        evaluate_fn = (scenario_evaluator(scenarios, constraints, progress) if scenarios is not None
+                       else (lambda c, s: evaluate(c, s, progress=progress)))
     results, rows = {}, []
     for b in sorted(budgets):
         if progress:
@@ -126,12 +163,13 @@ def pareto_front(shape: str, budgets: list[float], settings: EvalSettings, confi
         smaller = {f"answer at {a:g} m^2": best_plane(shape, r.best) for a, r in results.items() if r.best}
         res = optimise(shape, b, settings, out / f"budget-{b:g}", budget=budget, evaluate_fn=evaluate_fn,
                        progress=progress, confirm_settings=confirm, confirm_top=confirm_top, executor=executor,
-                       scheduler=scheduler, seeds=smaller)
+                       scheduler=scheduler, seeds=smaller, constraints=constraints, max_budget=max_budget,
+                       objective={"scenarios": scenarios.identity()} if scenarios is not None else None)
         results[b] = res
-        rows.append(_answer(shape, b, res, confirm, answer_mesh, evaluate_fn))
-        write_csv(out / "pareto.csv", rows, PARETO_COLUMNS)
-    presets = preset_rows(confirm, evaluate_fn, floor)
-    write_csv(out / "presets.csv", presets, ("preset", "area_m2", "fom_mk"))
+        rows.append(_answer(shape, b, res, confirm, answer_mesh, evaluate_fn, constraints))
+        write_csv(out / "front.csv", rows, PARETO_COLUMNS)
+    presets = preset_rows(confirm, evaluate_fn, floor, constraints)
+    write_csv(out / "presets.csv", presets, PRESET_COLUMNS)
     lad, rho = fidelity_ladder(shape, results, confirm, evaluate_fn, ladder) if ladder else ([], None)
     if lad:
         write_csv(out / "ladder.csv", lad, tuple(lad[0]))
@@ -145,17 +183,29 @@ def best_preset_within(presets: list[dict], area_m2: float) -> dict | None:
     return min(fit, key=lambda p: p["fom_mk"]) if fit else None
 
 
-def verdicts(front: Front, target: float = 0.25) -> list[str]:
+def verdicts(front: Front, target: float = 0.25, reference: str | None = None) -> list[str]:
     """Per budget, computed from the rows: the answer against the best preset with no more
-    metal (at least ``target`` lower is the issue's bar), and against the PEC floor."""
+    metal (at least ``target`` lower is the bar), or against the preset ``reference`` whatever its
+    metal, and against the PEC floor; whether the search's best was flat over its last half; an
+    infeasible budget says what its closest design breaks."""
     floor = next(p["fom_mk"] for p in front.presets if p["preset"] == "pec")
     out = []
     for r in front.rows:
         if r["fom_mk"] is None:
-            out.append(f"- {r['budget_m2']:g} m^2: no feasible design was scored.")
+            out.append(f"- {r['budget_m2']:g} m^2: no design was scored.")
             continue
-        ref = best_preset_within(front.presets, r["budget_m2"])
-        head = f"- {r['budget_m2']:g} m^2: {r['fom_mk']:.1f} mK at {r['area_m2']:.0f} m^2 ({r['evaluations']} solves)"
+        if r.get("feasible") is False:
+            out.append(f"- {r['budget_m2']:g} m^2: no feasible design in {r['evaluations']} solves; the closest, "
+                       f"{r['area_m2']:.0f} m^2 at {r['fom_mk']:.1f} mK, breaks: {r.get('violations') or '?'}.")
+            continue
+        flat = ("" if r.get("flat") is None else f"; best at solve {r['best_at']} of {r['evaluations']}: "
+                + ("flat over the last half" if r["flat"] else "**not** flat over the last half"))
+        if reference is not None:
+            ref = next((p for p in front.presets if p["preset"] == reference and p["fom_mk"] is not None), None)
+        else:
+            ref = best_preset_within(front.presets, r["budget_m2"])
+        head = (f"- {r['budget_m2']:g} m^2: {r['fom_mk']:.1f} mK at {r['area_m2']:.0f} m^2 ({r['evaluations']} solves"
+                f"{flat})")
         if ref is None:
             out.append(head + f"; no preset fits this budget; {r['fom_mk'] / floor:.2f} x the blade over infinite PEC.")
             continue
@@ -182,37 +232,68 @@ def label_offsets(points: list[tuple[float, float]], near: tuple[float, float] =
     return offsets
 
 
-def pareto_figure(front: Front, path: Path) -> Path:
-    """FoM vs metal area: the front, the presets and the PEC floor on the same axes."""
+def read_front(path: str | Path) -> list[dict[str, Any]]:
+    """Another run's front (``front.csv`` or an older ``pareto.csv``): (area, FoM) per budget, to draw beside."""
+    import csv
+
+    rows = []
+    with open(path, newline="") as fh:
+        for r in csv.DictReader(fh):
+            if r.get("area_m2") and r.get("fom_mk"):
+                rows.append({"budget_m2": float(r["budget_m2"]), "area_m2": float(r["area_m2"]),
+                             "fom_mk": float(r["fom_mk"])})
+    return rows
+
+
+def pareto_figure(front: Front, path: Path, beside: list[dict[str, Any]] | None = None,
+                  beside_label: str = "another front") -> Path:
+    """FoM vs metal area: the front (coloured by its ground loss when the rows carry one; hollow:
+    no feasible design), the presets and the PEC floor on the same axes, and ``beside``'s front."""
     from groundplane.plots import finish_figure, pyplot
 
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(8, 5))
+    fig, ax = plt.subplots(figsize=(8.5, 5))
     done = sorted((r for r in front.rows if r["fom_mk"] is not None), key=lambda r: r["budget_m2"])
-    ax.plot([r["area_m2"] for r in done], [r["fom_mk"] for r in done], "o", color="C0",
-            label="each budget's answer (confirm level) at its metal area")
-    if done:  # the front: the lowest FoM found with at most this much metal, up to the largest budget
-        by_area = sorted(done, key=lambda r: r["area_m2"])
+    feasible = [r for r in done if r.get("feasible") is not False]
+    losses = [r.get("max_loss") for r in done]
+    if any(v is not None for v in losses):
+        vmax = max(v for v in losses + [p.get("max_loss") for p in front.presets] if v is not None) * 100 or 1.0
+        sc = ax.scatter([r["area_m2"] for r in feasible], [r["fom_mk"] for r in feasible], s=60, cmap="viridis",
+                        c=[100 * (r.get("max_loss") or 0) for r in feasible], vmin=0, vmax=vmax, edgecolor="k", zorder=3,
+                        label="each budget's answer (confirm level)")
+        fig.colorbar(sc, ax=ax, label="largest ground loss in the fit band (%)")
+        bad = [r for r in done if r.get("feasible") is False]
+        if bad:
+            ax.scatter([r["area_m2"] for r in bad], [r["fom_mk"] for r in bad], s=60, facecolor="none", edgecolor="r",
+                       zorder=3, label="no feasible design: the closest")
+    else:
+        ax.plot([r["area_m2"] for r in feasible], [r["fom_mk"] for r in feasible], "o", color="C0",
+                label="each budget's answer (confirm level) at its metal area")
+    if feasible:  # the front: the lowest FoM found with at most this much metal, up to the largest budget
+        by_area = sorted(feasible, key=lambda r: r["area_m2"])
         best = list(np.minimum.accumulate([r["fom_mk"] for r in by_area]))
-        ax.step([r["area_m2"] for r in by_area] + [max(r["budget_m2"] for r in done)], best + best[-1:],
+        ax.step([r["area_m2"] for r in by_area] + [max(r["budget_m2"] for r in feasible)], best + best[-1:],
                 where="post", color="C0", lw=1.2, label="lowest FoM found with at most this much metal")
+    if beside:
+        ax.plot([r["area_m2"] for r in beside], [r["fom_mk"] for r in beside], "s--", color="0.5", mfc="none",
+                label=beside_label)
     ans = [r for r in done if r.get("answer_fom_mk") is not None]
     if ans:
-        ax.plot([r["area_m2"] for r in ans], [r["answer_fom_mk"] for r in ans], "s", mfc="none", color="C0",
+        ax.plot([r["area_m2"] for r in ans], [r["answer_fom_mk"] for r in ans], "D", mfc="none", color="C0",
                 label=f"the same at the answer mesh ({ans[0]['answer_mesh_m']:g} m)")
     shown = [p for p in front.presets if p["preset"] != "pec" and p["fom_mk"] is not None]
     for p, dy in zip(shown, label_offsets([(p["area_m2"], p["fom_mk"]) for p in shown])):
-        ax.plot(p["area_m2"], p["fom_mk"], "^", color="C3")
+        ax.plot(p["area_m2"], p["fom_mk"], "^", color="C3" if p.get("feasible") is not False else "0.6")
         ax.annotate(p["preset"], (p["area_m2"], p["fom_mk"]), fontsize=7, xytext=(4, 2 + dy), textcoords="offset points")
     for p in front.presets:
         if p["preset"] == "pec":
             ax.axhline(p["fom_mk"], color="k", ls="--", lw=1, label=f"blade over infinite PEC ({p['fom_mk']:.1f} mK)")
-    ax.plot([], [], "^", color="C3", label="the paper's presets")
+    ax.plot([], [], "^", color="C3", label="the paper's presets (grey: breaking the constraints)")
     for b in sorted({r["budget_m2"] for r in front.rows}):
         ax.axvline(b, color="0.85", lw=0.8, zorder=0)
-    ax.set(xlabel="metal area (m$^2$)", ylabel="LST-averaged FoM (mK)", title="Metal vs chromaticity")
+    ax.set(xlabel="metal area (m$^2$)", ylabel="FoM, the search's objective (mK)", title="Metal vs chromaticity")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=7)
     return finish_figure(fig, path)
 
 
@@ -238,30 +319,49 @@ def convergence_figure(front: Front, path: Path) -> Path:
     return finish_figure(fig, path)
 
 
-def write_report(front: Front, out: Path, command: str, settings: EvalSettings, confirm: EvalSettings) -> Path:
-    """pareto.md (with a provenance comment), the two figures, and each answer's STEP and outline."""
+def write_report(front: Front, out: Path, command: str, settings: EvalSettings, confirm: EvalSettings,
+                 objective: str = "", reference: str | None = None, beside: str | None = None) -> Path:
+    """pareto.md (with a provenance comment), the two figures, and each answer's STEP and outline.
+    ``objective``: the scenarios and constraints in words; ``reference``: the preset each answer is
+    set against (default: the best preset with no more metal); ``beside``: another run's front.csv
+    or pareto.csv drawn beside this one."""
     from groundplane import cad
     from groundplane.shapes import from_dict
 
-    pareto_figure(front, out / "pareto.png")
+    other = read_front(beside) if beside else None
+    pareto_figure(front, out / "pareto.png", other, f"beside: {beside}")
     convergence_figure(front, out / "convergence.png")
     for r in front.rows:
         if r["design"]:
             plane = from_dict(json.loads(r["design"]))
             cad.export(plane, out / f"answer-{r['budget_m2']:g}.step")
             cad.export(plane, out / f"answer-{r['budget_m2']:g}.svg")
+
+    def pct(v: Any) -> str:
+        return "-" if v is None or v == "" else f"{100 * float(v):.3f}"
+
     lines = [header("pareto", command, settings.identity(), confirm=confirm.identity()),
              "# Metal vs chromaticity: the optimised front", "", f"Command: `{command}` (resumable; every solve cached).",
-             "", f"Search level: {settings.describe()}.", "", f"Confirm level (the presets too): {confirm.describe()}.", "",
-             "| budget (m^2) | area (m^2) | FoM, confirm level (mK) | search level (mK) | answer mesh (mK) | solves | design |",
-             "|---|---|---|---|---|---|---|"]
+             "", f"Search level: {settings.describe()}.", "", f"Confirm level (the presets too): {confirm.describe()}.", ""]
+    lines += [f"Objective: {objective}.", ""] if objective else []
+    lines += ["| budget (m^2) | area (m^2) | FoM, confirm level (mK) | worst member (mK) | mean of the members (mK) | "
+              "largest ground loss (%) | feasible | search level (mK) | answer mesh (mK) | solves | best at solve | "
+              "design |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in front.rows:
         ans = f"{cell(r.get('answer_fom_mk'))} ({r['answer_mesh_m']:g} m)" if r.get("answer_mesh_m") else "-"
-        lines.append(f"| {r['budget_m2']:g} | {cell(r['area_m2'])} | {cell(r['fom_mk'])} | "
-                     f"{cell(r.get('search_fom_mk'))} | {ans} | {r['evaluations']} | `{r['design'] or '-'}` |")
-    lines += ["", "| preset | area (m^2) | FoM, confirm level (mK) |", "|---|---|---|"]
-    lines += [f"| {p['preset']} | {p['area_m2']:.0f} | {cell(p['fom_mk'])} |" for p in front.presets]
+        feas = "-" if r.get("feasible") is None else ("yes" if r["feasible"] else f"no: {r.get('violations')}")
+        lines.append(f"| {r['budget_m2']:g} | {cell(r['area_m2'])} | {cell(r['fom_mk'])} | {cell(r.get('worst_fom_mk'))} | "
+                     f"{cell(r.get('mean_fom_mk'))} | {pct(r.get('max_loss'))} | {feas} | {cell(r.get('search_fom_mk'))} | "
+                     f"{ans} | {r['evaluations']} | {r.get('best_at') or '-'} | `{r['design'] or '-'}` |")
+    lines += ["", "| preset | area (m^2) | FoM, confirm level (mK) | worst member (mK) | mean (mK) | largest ground loss "
+              "(%) | feasible |", "|---|---|---|---|---|---|---|"]
+    lines += [f"| {p['preset']} | {p['area_m2']:.0f} | {cell(p['fom_mk'])} | {cell(p.get('worst_fom_mk'))} | "
+              f"{cell(p.get('mean_fom_mk'))} | {pct(p.get('max_loss'))} | "
+              f"{'-' if p.get('feasible') is None else ('yes' if p['feasible'] else 'no: ' + str(p.get('violations')))} |"
+              for p in front.presets]
     lines += ["", "## Against the presets (computed from the rows)", "", *verdicts(front)]
+    if reference:
+        lines += ["", f"Against `{reference}` whatever the metal:", "", *verdicts(front, 0.15, reference)]
     if front.ladder:
         lines += ["", f"Fidelity ladder: {len(front.ladder)} designs the searches scored, spread over their FoM range, "
                   f"scored again at the confirm level (`ladder.csv`): Spearman **{cell(front.ladder_spearman, 2)}** "

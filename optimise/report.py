@@ -75,7 +75,8 @@ def write_report(rows: list[dict[str, Any]], out_dir: str | Path, title: str = "
         for i, r in enumerate(rows):
             w.writerow([labels[i] if i < len(labels) else "", r["name"], r.get("status"), r.get("shape"),
                         json.dumps(r.get("params")), r.get("metal_area_m2"), r.get("extent_m"),
-                        r.get("lst_averaged_fom_mk"), r.get("fom_smoothed_mk"), r.get("max_ground_loss"),
+                        r.get("lst_averaged_fom_mk"), r.get("fom_smoothed_mk"),
+                        r.get("max_loss", r.get("max_ground_loss")),
                         r.get("solve_s"), r.get("error", "")])
     figs = {}
     if ok:
@@ -91,6 +92,16 @@ def write_report(rows: list[dict[str, Any]], out_dir: str | Path, title: str = "
     md += [" ".join(notes), ""] if notes else []
     md += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     md += ["| " + " | ".join(c) + " |" for c in cells]
+    with_members = [r for r in ok if r.get("members")]
+    if with_members:
+        from .scenarios import member_table
+
+        md += ["", "## Every scenario member", ""]
+        for r in with_members:
+            md += [f"**{r['name']}** ({r['scenario_set']}, aggregate {r['aggregate']}; figures show its worst member, "
+                   f"{r.get('curves_of')}):", "", *member_table(r), ""]
+            if r.get("skipped_members"):
+                md += [f"Not applicable to this design: {', '.join(r['skipped_members'])}.", ""]
     if bad:
         md += ["", "## Not scored", ""] + [f"- **{r['name']}** ({r.get('status')}): {r.get('error', '')}" for r in bad]
     if figs:
@@ -126,15 +137,24 @@ def _rank_labels(ok: list[dict[str, Any]]) -> list[str]:
 
 def _ranking(ok: list[dict[str, Any]]) -> tuple[list[str], list[list[str]]]:
     """The ranking table, once, for both the markdown and the HTML report."""
+    scenario = any("scenario_set" in r for r in ok)
     header = ["rank", "candidate", "shape", "parameters", "metal area (m^2)", "extent (m)",
-              "LST-averaged FoM (mK)", "FoM, G(nu) smoothed (mK)", "narrow-band rms", "largest ground loss in the "
-              "fit band (%)", "solve (s)"]
+              "LST-averaged FoM (mK)" + (" (the set's aggregate)" if scenario else ""), "FoM, G(nu) smoothed (mK)",
+              "narrow-band rms", "largest ground loss in the fit band (%)", "solve (s)"]
+    if scenario:
+        header[7:9] = ["worst member (mK)", "mean of the members (mK)", "meets the constraints"]
     cells = []
     for label, r in zip(_rank_labels(ok), ok):
-        loss = r.get("max_ground_loss")
+        loss = r.get("max_loss", r.get("max_ground_loss"))
+        if "scenario_set" in r:
+            mid = [cell(r.get("worst_fom_mk")), cell(r.get("mean_fom_mk")),
+                   "yes" if r.get("feasible") else "no: " + "; ".join(r.get("violations") or [])]
+        elif scenario:
+            mid = ["-", "-", "-"]
+        else:
+            mid = [cell(r.get("fom_smoothed_mk")), "-" if r.get("narrow_band_rms") is None else f"{r['narrow_band_rms']:.1e}"]
         cells.append([label, r["name"], str(r.get("shape")), _params(r), cell(r.get("metal_area_m2")),
-                      cell(r.get("extent_m")), f"{r['lst_averaged_fom_mk']:.1f}", cell(r.get("fom_smoothed_mk")),
-                      "-" if r.get("narrow_band_rms") is None else f"{r['narrow_band_rms']:.1e}",
+                      cell(r.get("extent_m")), f"{r['lst_averaged_fom_mk']:.1f}", *mid,
                       "-" if loss is None else f"{100 * loss:.3f}", cell(r.get("solve_s"), 0)])
     return header, cells
 
@@ -197,7 +217,8 @@ def _figures(ok: list[dict[str, Any]], out: Path) -> dict[str, Path]:
         plt.close(fig)
     fig, ax = plt.subplots(figsize=(9, 4.5))
     for r in ok:
-        ax.plot(r["lst_hours"], r["fom_mk"], label=f"{r['name']} ({r['lst_averaged_fom_mk']:.0f} mK)")
+        if r.get("fom_mk") is not None:
+            ax.plot(r["lst_hours"], r["fom_mk"], label=f"{r['name']} ({r['lst_averaged_fom_mk']:.0f} mK)")
     ax.set_yscale("log")
     ax.set_xlabel("LST (h)")
     ax.set_ylabel("FoM (mK)")

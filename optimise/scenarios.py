@@ -59,6 +59,11 @@ DEFAULT_MAX_LOSS = 0.005
 
 
 # ------------------------------------------------------------------ as built
+class NotApplicable(ConfigError):
+    """An as-built variant the design has no part for (tooth bases of a square, a sheet it has
+    not): the member is skipped for that design, and the row says so."""
+
+
 def _polygon(poly) -> PolygonPlane:
     return PolygonPlane(tuple(poly.exterior.coords)[:-1])
 
@@ -130,7 +135,8 @@ def as_built(plane: GroundPlane, spec: str) -> tuple[GroundPlane, str]:
     if kind == "missing-sheet":
         found = missing_sheet(plane)
         if found is None:
-            raise ConfigError(f"as_built 'missing-sheet': {plane.describe()} has no edge piece of at least half a sheet")
+            raise NotApplicable(f"as_built 'missing-sheet': {plane.describe()} has no edge piece of at least half a "
+                                "sheet")
         return found[1], found[0]
     if kind == "corners":
         err, draw = vals
@@ -146,7 +152,7 @@ def as_built(plane: GroundPlane, spec: str) -> tuple[GroundPlane, str]:
     d = to_dict(plane)
     keys = [k for k in ("tooth_base", "base_x", "base_y") if k in d]
     if not keys:
-        raise ConfigError(f"as_built '{spec}': {d['shape']} has no tooth base")
+        raise NotApplicable(f"as_built '{spec}': a {d['shape']} has no tooth base")
     return from_dict({**d, **{k: d[k] + vals[0] for k in keys}}), f"tooth bases {vals[0]:+g} m"
 
 
@@ -198,7 +204,8 @@ class Member:
         return replace(base, soil=soil, model=model)
 
     def plane(self, plane: GroundPlane) -> tuple[GroundPlane, str | None]:
-        """The plane this member solves (as built, with what was done), or the plane itself."""
+        """The plane this member solves (as built, with what was done), or the plane itself;
+        :class:`NotApplicable` when the design has no part the variant changes."""
         if self.as_built is None:
             return plane, None
         return as_built(plane, self.as_built)
@@ -425,9 +432,12 @@ def member_jobs(candidate: Candidate, settings: EvalSettings, scenarios: Scenari
     jobs = []
     for m in scenarios.members:
         s = m.settings(settings)
-        plane, note = m.plane(candidate.plane) if candidate.plane is not None else (None, None)
         if candidate.plane is None and m.as_built is not None:
             raise UserInputError(f"scenario '{m.name}' builds the plane as built; '{candidate.name}' is a beam file")
+        try:
+            plane, note = m.plane(candidate.plane) if candidate.plane is not None else (None, None)
+        except NotApplicable:
+            continue  # the design has no such part: the member does not apply (listed as skipped in the row)
         c = Candidate(f"{candidate.name} [{m.name}]", plane=plane) if plane is not None else candidate
         jobs.append((m, s, c, note))
     return jobs
@@ -436,6 +446,8 @@ def member_jobs(candidate: Candidate, settings: EvalSettings, scenarios: Scenari
 def _solve_members(jobs, progress: bool) -> dict[int, tuple[Any, float] | str]:
     """Each member's (beam, seconds), or its error: members of one model solved together."""
     import time
+
+    from solvers.engines import solve_all
 
     from .evaluate import candidate_beam
 
@@ -454,8 +466,8 @@ def _solve_members(jobs, progress: bool) -> dict[int, tuple[Any, float] | str]:
         s = jobs[members[0]][1]
         t0 = time.perf_counter()
         try:
-            beams = s.make_solver(progress).solve_many([Design(jobs[i][2].plane, jobs[i][1].soil) for i in members],
-                                                      s.freqs_mhz)
+            beams = solve_all(s.make_solver(progress), [Design(jobs[i][2].plane, jobs[i][1].soil) for i in members],
+                              s.freqs_mhz)
         except KeyboardInterrupt:
             raise
         except Exception as exc:  # noqa: BLE001 - reported in the row
@@ -468,8 +480,8 @@ def _solve_members(jobs, progress: bool) -> dict[int, tuple[Any, float] | str]:
     return out
 
 
-MEMBER_FIELDS = ("lst_averaged_fom_mk", "fom_mk", "lst_hours", "max_ground_loss", "ground_loss", "freqs_mhz",
-                 "fit_freqs_mhz", "solve_s", "solver_cpu_s", "n_unknowns", "beam_cache_key")
+MEMBER_FIELDS = ("lst_averaged_fom_mk", "fom_mk", "lst_hours", "residuals_mk", "max_ground_loss", "ground_loss",
+                 "freqs_mhz", "fit_freqs_mhz", "solve_s", "solver_cpu_s", "n_unknowns", "beam_cache_key")
 
 
 def evaluate_scenarios(candidate: Candidate, settings: EvalSettings, scenarios: ScenarioSet,
@@ -506,7 +518,9 @@ def evaluate_scenarios(candidate: Candidate, settings: EvalSettings, scenarios: 
         members.append({"member": m.name, "axis": m.axis, "soil_only": m.soil_only, "as_built": note,
                         "metal_area_m2": c.plane.metal_area if c.plane is not None else None,
                         **{k: row.get(k) for k in MEMBER_FIELDS}})
-    return scenario_row(candidate, scenarios, constraints, members, settings)
+    row = scenario_row(candidate, scenarios, constraints, members, settings)
+    skipped = [m.name for m in scenarios.members if m.name not in {r["member"] for r in members}]
+    return {**row, **({"skipped_members": skipped} if skipped else {})}
 
 
 def scenario_row(candidate: Candidate, scenarios: ScenarioSet, constraints: Constraints, members: list[dict],
@@ -526,7 +540,10 @@ def scenario_row(candidate: Candidate, scenarios: ScenarioSet, constraints: Cons
         spread = float(spread_across([np.asarray(r["ground_loss"])[inside] for r in soil]).max())
     broken = constraints.violations(max_loss, spread)
     nominal = next((r for r in members if r["axis"] in ("nominal",)), None)
+    worst = max(members, key=lambda r: r["lst_averaged_fom_mk"])  # its curves stand for the row in figures
     return {**row_head(candidate, "ok"), "lst_averaged_fom_mk": aggregate(foms, scenarios.aggregate),
+            "fom_mk": worst.get("fom_mk"), "lst_hours": worst.get("lst_hours"), "residuals_mk": worst.get("residuals_mk"),
+            "curves_of": worst["member"],
             "aggregate": scenarios.aggregate, "scenario_set": scenarios.name,
             "mean_fom_mk": float(np.mean(foms)), "worst_fom_mk": float(np.max(foms)),
             "nominal_fom_mk": nominal["lst_averaged_fom_mk"] if nominal else None,
@@ -605,3 +622,41 @@ def describe_set(scenarios: ScenarioSet, constraints: Constraints) -> str:
     return (f"scenario set `{scenarios.name}` ({len(scenarios.members)} member(s): "
             f"{'; '.join(m.name for m in scenarios.members)}), aggregate {scenarios.aggregate}; constraints: "
             f"{', '.join(cons) or 'none'}")
+
+
+# ------------------------------------------------------------------ options
+from groundplane.options import option  # noqa: E402 - the options live beside what they configure
+
+
+@dataclass(frozen=True)
+class ScenarioOptions:
+    """What a design is scored on and held to, as command-line options and a sweep's
+    ``[scenarios]`` table: the scenario set, its aggregate, the loss constraints."""
+
+    scenarios: str = option("soil", "the uncertainty each design is scored on: nominal (the settings as given), "
+                            "soil (the paper's section-5 corners and MRO), model (feed 4 / 125.2 cm x plate 2.5 / "
+                            "10 mm), as-built, field (all of them), or a TOML file of members", metavar="SET|FILE")
+    aggregate: str = option("", "how the members' FoMs make one: mean, worst, or worst-K (the mean of the worst K) "
+                            "(default: the set's own, worst for the built-in sets)", metavar="HOW")
+    max_loss: float | None = option(DEFAULT_MAX_LOSS, "the largest ground loss in the fit band on every soil member, a "
+                                    "fraction (0.005) or a percentage (0.5%); none: no limit", parse=parse_loss,
+                                    metavar="L")
+    max_loss_spread: float | None = option(None, "the largest spread of the loss across the soil members at any "
+                                           "frequency (the calibration risk); none: no limit", parse=parse_loss,
+                                           metavar="D")
+
+    def __post_init__(self) -> None:
+        try:
+            self.constraints()
+        except UserInputError as exc:
+            raise SettingsError(str(exc)) from None
+
+    def set(self) -> ScenarioSet:
+        return scenario_set(self.scenarios, self.aggregate or None)
+
+    def constraints(self) -> Constraints:
+        return Constraints(self.max_loss, self.max_loss_spread)
+
+
+PAPER_OBJECTIVE = ScenarioOptions("nominal", "", None, None)
+"""The paper's objective: the FoM at the nominal soil and model, no loss limit (``results/pareto``)."""

@@ -302,26 +302,24 @@ def optimise(
     in the first half of the solves (``stopping``) or ``max_budget`` is spent (default ``budget``: no
     more; ``stopping`` says either way whether the best so far is flat over the last half).
     Raises UserInputError for a family, budget or algorithm that cannot work."""
-    from .scenarios import NO_CONSTRAINTS, scenario_evaluator
+    from .scenarios import NO_CONSTRAINTS
 
     fam = family(shape)
     ints = integer_choices(fam, integer_values)
     _check_request(max_area, algorithm, budget, strategy, fam, ints, seeds)
     settings.check_scorable()
     constraints = constraints or NO_CONSTRAINTS
+    if scenarios is not None and scenarios.name != "nominal" and executor != "local":
+        raise UserInputError("--executor dask presolves one beam per design; a search over a scenario set runs "
+                             "locally (its members of one model are solved together)")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    if scenarios is not None:
-        objective = {**(objective or {}), "scenarios": scenarios.identity()}
-    if constraints != NO_CONSTRAINTS:
-        objective = {**(objective or {}), "constraints": constraints.identity()}
+    objective = _objective(objective, scenarios, constraints)
     extra = {**({"strategy": strategy} if strategy != "local" else {}), **({"objective": objective} if objective else {})}
     same_search(out, {"shape": shape, "max_area": max_area, "settings": settings.identity(), **extra})
-    if evaluate_fn is None:
-        evaluate_fn = (scenario_evaluator(scenarios, constraints, progress) if scenarios is not None
-                       else (lambda c, s: evaluate(c, s, progress=progress)))
-    ev = _Evaluator(fam, shape, max_area, settings, History(out / "history.jsonl"), evaluate_fn, progress,
-                    budget=budget, constraints=constraints)
+    ev = _Evaluator(fam, shape, max_area, settings, History(out / "history.jsonl"),
+                    evaluate_fn or _default_evaluate(scenarios, constraints, progress), progress, budget=budget,
+                    constraints=constraints)
     if strategy == "global":
         _global_search(fam, ints, ev, algorithm, out, executor, scheduler, seeds)
     else:
@@ -338,6 +336,26 @@ def optimise(
     with atomic_path(out / "best.json", suffix=".tmp.json") as tmp:
         tmp.write_text(json.dumps(best, indent=1))
     return OptimiseResult(best, ev.hist.rows, out, confirmed, None if best else ev.closest(), stopping)
+
+
+def _objective(objective: dict[str, Any] | None, scenarios, constraints) -> dict[str, Any] | None:
+    """What the search minimises and under which constraints, as recorded in search.json."""
+    from .scenarios import NO_CONSTRAINTS
+
+    if scenarios is not None:
+        objective = {**(objective or {}), "scenarios": scenarios.identity()}
+    if constraints != NO_CONSTRAINTS:
+        objective = {**(objective or {}), "constraints": constraints.identity()}
+    return objective
+
+
+def _default_evaluate(scenarios, constraints, progress: bool) -> Callable[[Candidate, EvalSettings], dict[str, Any]]:
+    """The scenario set's evaluation, or one solve at the settings as given."""
+    from .scenarios import scenario_evaluator
+
+    if scenarios is not None:
+        return scenario_evaluator(scenarios, constraints, progress)
+    return lambda c, s: evaluate(c, s, progress=progress)
 
 
 def flat_over_last_half(rows: list[dict[str, Any]]) -> dict[str, Any]:

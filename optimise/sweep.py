@@ -74,9 +74,12 @@ def load_config(path: str | Path) -> tuple[list[Candidate], list[dict[str, Any]]
         cfg = tomllib.loads(path.read_text())
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise ConfigError(f"{path}: {exc}") from None
-    unknown = set(cfg) - {"solver", "fom", "candidate", "family"}
+    unknown = set(cfg) - {"solver", "fom", "candidate", "family", "scenarios"}
     if unknown:
-        raise ConfigError(f"{path}: unknown table(s) {sorted(unknown)}; expected solver, fom, candidate, family")
+        raise ConfigError(f"{path}: unknown table(s) {sorted(unknown)}; expected solver, fom, scenarios, candidate, "
+                          "family")
+    if "scenarios" in cfg and not isinstance(cfg["scenarios"], dict):
+        raise ConfigError(f"{path}: 'scenarios' must be a [scenarios] table (set, aggregate, max_loss, max_loss_spread)")
     settings = settings_from_tables(cfg.get("solver", {}), cfg.get("fom", {}), f"{path}: ")
     candidates = [_candidate(c, path, f"{path}: [[candidate]] #{i + 1}") for i, c in enumerate(cfg.get("candidate", []))]
     invalid: list[dict[str, Any]] = []
@@ -91,6 +94,24 @@ def load_config(path: str | Path) -> tuple[list[Candidate], list[dict[str, Any]]
     if dup:
         raise ConfigError(f"{path}: candidate names must be unique; repeated: {sorted(dup)}")
     return candidates, invalid, settings
+
+
+def load_scenarios(path: str | Path, given: dict[str, Any] | None = None):
+    """The sweep file's ``[scenarios]`` table (keys of ``ScenarioOptions``: scenarios, aggregate,
+    max_loss, max_loss_spread), with the command line's ``given`` values over it; None when
+    neither says anything (the candidates are scored at the settings as given, no loss limit)."""
+    from .scenarios import PAPER_OBJECTIVE, ScenarioOptions
+
+    path = Path(path)
+    try:
+        table = tomllib.loads(path.read_text()).get("scenarios", {})
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise ConfigError(f"{path}: {exc}") from None
+    values = {**(table if isinstance(table, dict) else {}), **(given or {})}
+    if not values:
+        return None
+    base = {"scenarios": PAPER_OBJECTIVE.scenarios, "max_loss": None}  # a sweep's defaults: the paper's objective
+    return build(ScenarioOptions, {**base, **values}, f"{path}: [scenarios] ")
 
 
 def _candidate(c: dict[str, Any], path: Path, where: str) -> Candidate:
@@ -180,13 +201,22 @@ def run_sweep(
     scheduler: str | None = None,
     progress: bool = True,
     retry_failed: bool = False,
+    scenarios=None,
+    constraints=None,
 ) -> list[dict[str, Any]]:
-    """Evaluate every candidate not already in ``out_dir``; return all rows (this sweep's)."""
+    """Evaluate every candidate not already in ``out_dir``; return all rows (this sweep's). With
+    ``scenarios`` each candidate is scored on every member (``scenarios.evaluate_scenarios``) and
+    held to ``constraints``."""
     if any(c.plane is not None for c in candidates):
         settings.check_scorable()
+    if scenarios is not None and executor != "local":
+        raise UserInputError("--executor dask solves one beam per candidate; a sweep over a scenario set runs "
+                             "locally (its members of one model are solved together)")
     store = ResultStore(out_dir)
     done = store.rows()
-    keys = {c.name: row_key(c, settings) for c in candidates}
+    extra = {} if scenarios is None else {"scenarios": scenarios.identity(),
+                                          "constraints": constraints.identity() if constraints else None}
+    keys = {c.name: row_key(c, settings, extra) for c in candidates}
     todo = [c for c in candidates
             if keys[c.name] not in done or (retry_failed and done[keys[c.name]].get("status") != "ok")]
     if progress:
@@ -196,8 +226,14 @@ def run_sweep(
         from groundplane.progress import Progress
 
         bar = Progress(len(todo), "candidates", "cand") if progress else None
+        if scenarios is not None:
+            from .scenarios import NO_CONSTRAINTS, check_set, evaluate_scenarios
+
+            for c in todo:
+                check_set(scenarios, settings, c.plane)  # refused before any solve
         for c in todo:
-            row = evaluate(c, settings, progress=progress)
+            row = (evaluate(c, settings, progress=progress) if scenarios is None else
+                   evaluate_scenarios(c, settings, scenarios, constraints or NO_CONSTRAINTS, progress))
             store.append({"key": keys[c.name], **row})
             if bar:
                 fom = row.get("lst_averaged_fom_mk")

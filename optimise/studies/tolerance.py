@@ -22,6 +22,7 @@ from ..scenarios import (
     OFFSET_M,
     TOOTH_BASE_ERROR_M,
     TURN_DEG,
+    NotApplicable,
     ScenarioSet,
     as_built,
     missing_sheet,
@@ -52,7 +53,10 @@ def variants(plane: GroundPlane, settings: EvalSettings, draws: int = DEFAULT_DR
     if scenarios is not None:
         out = []
         for m in scenarios.members:
-            p, note = m.plane(plane)
+            try:
+                p, note = m.plane(plane)
+            except NotApplicable:
+                continue
             out.append(Variant(m.axis, m.name + (f" ({note})" if note else ""), p, m.settings(settings)))
         return out
     out = [Variant("nominal", "as designed", plane, settings)]

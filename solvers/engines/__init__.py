@@ -12,8 +12,9 @@ from .base import (
     Solver,
     make_solver,
     register_engine,
+    solve_all,
 )
 from .cache import BeamCache
 
 __all__ = ["DEFAULT_FREQS_MHZ", "ENGINES", "BeamCache", "FrequencySolver", "Plan", "Solver", "make_solver",
-           "register_engine"]
+           "register_engine", "solve_all"]

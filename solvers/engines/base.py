@@ -125,6 +125,14 @@ def register_engine(cls: type) -> type:
     return cls
 
 
+def solve_all(solver: Solver, designs: list[Design], freqs_mhz: Iterable[float]) -> list[Beam]:
+    """The beams of several designs: the engine's ``solve_many`` (which shares work between
+    designs it can solve together), or one ``solve`` each for an engine without one."""
+    if hasattr(solver, "solve_many"):
+        return solver.solve_many(designs, freqs_mhz)
+    return [solver.solve(d, freqs_mhz) for d in designs]
+
+
 def make_solver(engine: str, settings: Any = None, **runtime: Any) -> Solver:
     """An engine by name, with its settings (None: the engine's defaults)."""
     if engine not in ENGINES:

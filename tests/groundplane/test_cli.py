@@ -85,9 +85,10 @@ def test_shape_flags_say_which_family_uses_them(capsys):
     with pytest.raises(SystemExit):
         main(["export", "--help"])
     out = capsys.readouterr().out
-    assert "[square, sawtooth, teeth] side of the central square (m) / side of the square (m)" in " ".join(out.split())
-    assert "[sawtooth, teeth] teeth on each side of the square (4 x this in all) / triangles on each side" in \
-        " ".join(out.split())
+    assert ("[square, sawtooth, teeth, teeth-xy] side of the central square (m) / side of the square (m) / side of the "
+            "square core (m)") in " ".join(out.split())
+    assert ("[sawtooth, teeth, teeth-xy] teeth on each side (4 x this in all, besides the corner teeth) / teeth on "
+            "each side of the square (4 x this in all) / triangles on each side") in " ".join(out.split())
 
 
 def test_outputs_checked_before_work_and_replaced_atomically(tmp_path, capsys):

@@ -32,7 +32,7 @@ def test_pareto_front_tables_ladder_and_verdicts(tmp_path):
     confirm = EvalSettings()
     front = pareto_front("teeth", [600.0, 200.0], search, confirm, tmp_path, budget=16, answer_mesh=0.35, ladder=20,
                          evaluate_fn=fake_eval(calls), progress=False, floor=lambda s: 55.0)
-    rows = list(csv.DictReader((tmp_path / "pareto.csv").open()))
+    rows = list(csv.DictReader((tmp_path / "front.csv").open()))
     assert [float(r["budget_m2"]) for r in rows] == [200.0, 600.0]
     for r in rows:
         assert float(r["area_m2"]) <= float(r["budget_m2"]) + 1e-6 and float(r["mesh_m"]) == 0.5

@@ -74,7 +74,7 @@ def test_optimiser_rejects_bad_requests(tmp_path):
         optimise("square", float("nan"), EvalSettings(), tmp_path)
 
 def test_every_family_start_is_valid_and_in_budget():
-    assert set(optimisable()) == {"square", "plus", "sawtooth", "polygon-n", "star", "teeth"}
+    assert set(optimisable()) == {"square", "plus", "sawtooth", "polygon-n", "star", "teeth", "teeth-xy"}
     for name in optimisable():
         fam = family(name)
         for n in fam.integer_values or (None,):
