@@ -42,7 +42,7 @@ import numpy as np
 
 from groundplane import paper
 from groundplane.design import Design, Soil
-from groundplane.errors import ConfigError, SettingsError, SolveError, UserInputError
+from groundplane.errors import ConfigError, SettingsError, ShapeError, SolveError, UserInputError
 from groundplane.shapes import GroundPlane, PolygonPlane, from_dict, to_dict
 
 from .evaluate import Candidate, EvalSettings, failed_row, row_head, score
@@ -153,7 +153,10 @@ def as_built(plane: GroundPlane, spec: str) -> tuple[GroundPlane, str]:
     keys = [k for k in ("tooth_base", "base_x", "base_y") if k in d]
     if not keys:
         raise NotApplicable(f"as_built '{spec}': a {d['shape']} has no tooth base")
-    return from_dict({**d, **{k: d[k] + vals[0] for k in keys}}), f"tooth bases {vals[0]:+g} m"
+    try:
+        return from_dict({**d, **{k: d[k] + vals[0] for k in keys}}), f"tooth bases {vals[0]:+g} m"
+    except ShapeError as exc:  # teeth that would overlap (bases filling the side already): not buildable so
+        raise NotApplicable(f"as_built '{spec}': {exc}") from None
 
 
 # ------------------------------------------------------------------ members

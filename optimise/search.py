@@ -358,16 +358,23 @@ def _default_evaluate(scenarios, constraints, progress: bool) -> Callable[[Candi
     return lambda c, s: evaluate(c, s, progress=progress)
 
 
-def flat_over_last_half(rows: list[dict[str, Any]]) -> dict[str, Any]:
-    """The stopping rule, from a search's rows in order: the solves, the solve at which the best
-    feasible objective so far was last improved, and whether that lies in the first half (the
-    second half found nothing better)."""
+FLAT_TOLERANCE = 0.01  # improvements smaller than this (relative) are within the model's own noise (mesh, fit)
+
+
+def flat_over_last_half(rows: list[dict[str, Any]], tol: float = FLAT_TOLERANCE) -> dict[str, Any]:
+    """The stopping rule, from a search's rows in order: the solves, the solve from which the best
+    feasible objective so far stays within ``tol`` of the final best, and whether that lies in the
+    first half (the second half found nothing better by more than ``tol``)."""
     solved = [r for r in rows if r["status"] in ("ok", "failed")]
-    best, at = math.inf, 0
-    for i, r in enumerate(solved, 1):
-        if r["status"] == "ok" and r.get("feasible", True) and r["fom_mk"] < best:
-            best, at = r["fom_mk"], i
-    return {"solves": len(solved), "best_at": at, "flat": bool(solved) and at > 0 and at <= len(solved) / 2}
+    so_far, curve = math.inf, []
+    for r in solved:
+        if r["status"] == "ok" and r.get("feasible", True):
+            so_far = min(so_far, r["fom_mk"])
+        curve.append(so_far)
+    if not curve or not math.isfinite(curve[-1]):
+        return {"solves": len(solved), "best_at": 0, "flat": False}
+    at = next(i for i, v in enumerate(curve, 1) if v <= curve[-1] * (1 + tol))
+    return {"solves": len(solved), "best_at": at, "flat": at <= len(solved) / 2}
 
 
 def _until_flat(fam: Family, ev: "_Evaluator", algorithm: str, max_budget: int) -> dict[str, Any]:
@@ -384,7 +391,7 @@ def _until_flat(fam: Family, ev: "_Evaluator", algorithm: str, max_budget: int) 
         ev.budget = ev.solves + more
         before = ev.solves
         _run_nlopt(fam, best["integer"], ev, algorithm, ev.solves + more, ev.max_area, ev.progress,
-                   x0=np.array(best["x"]), phase=f"until-flat-{k}")
+                   x0=np.array(best["x"]), phase=f"until-flat-{k}", step=0.05)
         if ev.solves == before:  # nlopt converged at once: nothing new to try from here
             break
         state = flat_over_last_half(ev.counted)
@@ -644,9 +651,10 @@ class _Evaluator:
 
 
 def _run_nlopt(fam: Family, n: int | None, ev: _Evaluator, algorithm: str, stop_at_solves: int, max_area: float,
-               progress: bool, x0: np.ndarray | None = None, phase: str = "local") -> None:
+               progress: bool, x0: np.ndarray | None = None, phase: str = "local", step: float = 0.15) -> None:
     """One nlopt run over the continuous parameters at integer value ``n``, until the
-    evaluator has made ``stop_at_solves`` solves (or nlopt converges)."""
+    evaluator has made ``stop_at_solves`` solves (or nlopt converges); COBYLA's first step is
+    ``step`` of each parameter's range."""
     import nlopt
 
     opt = nlopt.opt(getattr(nlopt, algorithm), len(fam.names))
@@ -678,7 +686,7 @@ def _run_nlopt(fam: Family, n: int | None, ev: _Evaluator, algorithm: str, stop_
     opt.set_maxeval(10 * max(1, stop_at_solves))  # invalid proposals cost no solve; this only bounds a stuck run
     opt.set_xtol_rel(1e-3)
     if algorithm == "LN_COBYLA":
-        opt.set_initial_step([0.15 * (u - l) for l, u in zip(fam.lower, fam.upper)])
+        opt.set_initial_step([step * (u - l) for l, u in zip(fam.lower, fam.upper)])
     try:
         opt.optimize(x0)
     except (nlopt.ForcedStop, BudgetSpent):

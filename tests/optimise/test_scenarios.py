@@ -1,0 +1,186 @@
+"""Scenario sets (members, aggregates, TOML), constraints on the ground loss, and the search that
+holds designs to them: the plumbing on stand-in FoMs, one real scoring of a small plate."""
+import json
+
+import numpy as np
+import pytest
+
+from groundplane.errors import ConfigError, UserInputError
+from groundplane.shapes import PRESETS, Square, TeethXY, preset
+from optimise.evaluate import Candidate, EvalSettings
+from optimise.scenarios import (
+    Constraints,
+    Member,
+    ScenarioSet,
+    aggregate,
+    evaluate_scenarios,
+    load_set,
+    scenario_set,
+)
+from optimise.search import flat_over_last_half, optimise
+
+
+def test_built_in_sets_are_the_named_members():
+    soil = scenario_set("soil")
+    assert len(soil.members) == 5 and all(m.soil_only and m.axis == "soil" for m in soil.members)
+    pairs = {(s.soil.eps_r, s.soil.sigma) for s in (m.settings(EvalSettings()) for m in soil.members)}
+    assert pairs == {(2.5, 0.005), (2.5, 0.05), (5.0, 0.005), (5.0, 0.05), (3.5, 0.02)}
+    model = [m.settings(EvalSettings()) for m in scenario_set("model").members]
+    assert {(s.model.feed_width, s.model.plate_height) for s in model} == {(0.04, 0.0025), (0.04, 0.01),
+                                                                         (1.252, 0.0025), (1.252, 0.01)}
+    assert all((s.soil.eps_r, s.soil.sigma) == (3.5, 0.02) for s in model)
+    field = scenario_set("field")
+    assert {m.axis for m in field.members} == {"soil", "model", "as built"} and len(field.members) == 18
+    assert scenario_set("soil").aggregate == "worst" and scenario_set("soil", "worst-2").aggregate == "worst-2"
+    with pytest.raises(UserInputError, match="choose one of nominal"):
+        scenario_set("monsoon")
+
+
+def test_as_built_members_build_the_variants_or_skip_designs_without_the_part():
+    plane = preset("extended")  # 4.8 m teeth: +0.2 m still fits its sides (sawtooth-20-16's 5 m teeth do not)
+    for m in scenario_set("as-built").members[1:]:
+        built, note = m.plane(plane)
+        assert note and built != plane
+    jobs_square = [m for m in scenario_set("as-built").members if m.as_built and m.as_built.startswith("tooth-base")]
+    from optimise.scenarios import NotApplicable
+
+    with pytest.raises(NotApplicable):
+        jobs_square[0].plane(Square(10.0))
+    with pytest.raises(NotApplicable, match="teeth of base 5.2 m"):
+        jobs_square[1].plane(preset("sawtooth-20-16"))
+
+
+def test_member_overrides_are_type_checked_and_refused_by_name():
+    s = Member("hot", (("plate_height", 0.01), ("eps_r", 4.0))).settings(EvalSettings())
+    assert s.model.plate_height == 0.01 and s.soil.eps_r == 4.0 and s.soil.sigma == 0.02
+    with pytest.raises(ConfigError, match="model has no 'wire_radius'"):
+        Member("nec only", (("wire_radius", 0.01),)).settings(EvalSettings())
+    with pytest.raises(ConfigError, match="scenario 'neg'"):
+        Member("neg", (("plate_height", -1.0),)).settings(EvalSettings())
+
+
+def test_a_toml_set_is_read_and_its_mistakes_named(tmp_path):
+    good = tmp_path / "wet.toml"
+    good.write_text('name = "wet"\naggregate = "mean"\n[[member]]\nname = "wet"\neps_r = 5.0\nsigma = 0.05\n'
+                    '[[member]]\nname = "gap"\nplate_height = 0.01\n[[member]]\nname = "turned"\nas_built = "turned:3"\n')
+    s = load_set(good)
+    assert [m.axis for m in s.members] == ["soil", "model", "as built"] and s.aggregate == "mean"
+    assert scenario_set(str(good)).name == "wet"
+    for body, match in (('[[member]]\nname = "a"\n[[member]]\nname = "a"\n', "unique"),
+                        ('aggregate = "worst-3"\n[[member]]\nname = "a"\n', "has 1 member"),
+                        ('[[member]]\nflag = true\n', "not a value"), ("season = 1\n", "unknown key"),
+                        ("member = 5\n", "must be"), ("[[member\n", "wet.toml")):
+        good.write_text(body)
+        with pytest.raises(ConfigError, match=match):
+            load_set(good)
+
+
+def test_aggregates():
+    v = [10.0, 40.0, 20.0, 30.0]
+    assert aggregate(v, "mean") == 25.0 and aggregate(v, "worst") == 40.0 and aggregate(v, "worst-2") == 35.0
+    with pytest.raises(UserInputError):
+        ScenarioSet("x", (Member("a"),), "worst-zero")
+
+
+def _member_fn(fom_of, loss_of):
+    """A stand-in for one member's solve and score: FoM and ground loss from the plane and settings."""
+    def fn(candidate, settings):
+        loss = loss_of(candidate.plane, settings)
+        return {"status": "ok", "lst_averaged_fom_mk": fom_of(candidate.plane, settings), "max_ground_loss": loss,
+                "ground_loss": [loss, loss / 2], "freqs_mhz": [60.0, 80.0]}
+    return fn
+
+
+def test_the_row_aggregates_members_and_reads_the_loss_on_soil_members_only():
+    scen = ScenarioSet("mix", (Member("dry", (("eps_r", 2.5), ("sigma", 0.005))), Member("wet", (("sigma", 0.05),)),
+                               Member("gap", (("plate_height", 0.01),))), "worst")
+    fn = _member_fn(lambda p, s: 100.0 / s.soil.eps_r + 1000 * s.model.plate_height,
+                    lambda p, s: 0.01 if s.model.plate_height > 0.005 else 0.004 * 2.5 / s.soil.eps_r)
+    row = evaluate_scenarios(Candidate("sq", plane=Square(10.0)), EvalSettings(), scen, Constraints(0.005, 0.002),
+                             member_fn=fn)
+    assert row["per_member_mk"] == pytest.approx([40.0 + 5, 100 / 3.5 + 5, 100 / 3.5 + 10])
+    assert row["lst_averaged_fom_mk"] == pytest.approx(45.0) and row["worst_fom_mk"] == pytest.approx(45.0)
+    assert row["max_loss"] == pytest.approx(0.004)  # the plate-height member's 1 % is not a soil member
+    assert row["loss_spread"] == pytest.approx(0.004 - 0.004 * 2.5 / 3.5)
+    assert row["feasible"] is True
+    tight = evaluate_scenarios(Candidate("sq", plane=Square(10.0)), EvalSettings(), scen, Constraints(0.003, 0.0005),
+                               member_fn=fn)
+    assert not tight["feasible"] and len(tight["violations"]) == 2
+    assert "ground loss 0.400 % > 0.300 % (by 0.100 points)" in tight["violations"][0]
+    failing = evaluate_scenarios(Candidate("sq", plane=Square(10.0)), EvalSettings(), scen, member_fn=lambda c, s: {
+        "status": "failed", "error": "boom"})
+    assert failing["status"] == "failed" and "on scenario 'dry': boom" in failing["error"]
+
+
+def test_the_search_never_answers_an_infeasible_design_and_the_loss_binds(tmp_path):
+    """Loss falls with metal, FoM rises with it: the answer is the smallest plate whose loss is
+    within the limit, not the smaller plate with the lower FoM."""
+    scen = ScenarioSet("two soils", (Member("dry", (("eps_r", 2.5),)), Member("wet", (("eps_r", 5.0),))))
+    fn = _member_fn(lambda p, s: 50.0 + p.side, lambda p, s: 0.4 / p.side ** 2 * (3.5 / s.soil.eps_r))
+
+    def ev(c, s):
+        return evaluate_scenarios(c, s, scen, Constraints(0.003), member_fn=fn)
+    res = optimise("square", 900.0, EvalSettings(), tmp_path, budget=30, evaluate_fn=ev, progress=False,
+                   constraints=Constraints(0.003))
+    limit = np.sqrt(0.4 / 0.003 * 3.5 / 2.5)  # the side where the dry soil's loss is 0.3 %
+    assert res.best["params"]["side"] >= limit - 1e-6
+    assert res.best["params"]["side"] < limit * 1.1  # and close to it: the constraint binds
+    assert all(r.get("feasible") is False for r in res.history if r["status"] == "ok" and r["x"][0] < limit - 1e-6)
+    assert res.best["fom_mk"] > min(r["fom_mk"] for r in res.history if r["status"] == "ok")  # a lower one was infeasible
+    nothing = optimise("square", 50.0, EvalSettings(), tmp_path / "small", budget=6, evaluate_fn=ev, progress=False,
+                       constraints=Constraints(0.003))
+    assert nothing.best is None and nothing.closest is not None and not nothing.closest["feasible"]
+
+
+def test_stopping_rule_reads_where_the_best_so_far_was_found():
+    rows = [{"status": "ok", "fom_mk": v} for v in (50, 40, 45, 41, 42, 43)]
+    assert flat_over_last_half(rows) == {"solves": 6, "best_at": 2, "flat": True}
+    rows.append({"status": "ok", "fom_mk": 39.9})  # better by less than 1 %: still flat
+    assert flat_over_last_half(rows)["flat"] is True
+    rows.append({"status": "ok", "fom_mk": 35.0})  # better by 12 % at the end: not flat
+    assert flat_over_last_half(rows) == {"solves": 8, "best_at": 8, "flat": False}
+    rows += [{"status": "failed", "fom_mk": None}] * 8 + [{"status": "ok", "fom_mk": 10, "feasible": False}]
+    assert flat_over_last_half(rows) == {"solves": 17, "best_at": 8, "flat": True}  # an infeasible one never counts
+
+
+def test_max_budget_goes_on_until_flat(tmp_path):
+    """A FoM that keeps improving toward a corner: past --budget the search refines from its best
+    until the best so far lies in the first half, or the cap."""
+    def ev(c, s):
+        return {"status": "ok", "lst_averaged_fom_mk": 100.0 + (c.plane.side - 13.3) ** 2}
+    res = optimise("square", 900.0, EvalSettings(), tmp_path, budget=6, evaluate_fn=ev, progress=False,
+                   max_budget=40)
+    assert res.stopping["flat"] and res.stopping["solves"] <= 40
+    assert res.best["fom_mk"] == pytest.approx(100.0, abs=0.5)
+
+
+def test_teeth_xy_holds_the_paper_planes_crosses_and_stars():
+    for name, plane in PRESETS.items():
+        m = TeethXY.member(plane)
+        assert m is not None and m.outline().symmetric_difference(plane.outline()).area < 1e-6, name
+    cross = TeethXY(4.6, 1, 0.0, 2.25, 9.8, 1.0, 2.25, 5.0, 1.0, 0.0, 0.0, 0.0)  # arms longer along the axis
+    assert cross.extent == pytest.approx(4.6 + 2 * 9.8) and all(cross.mirror_symmetry.values())
+    star = TeethXY(10.0, 1, 3.0, 2.0, 8.0, 0.0, 2.0, 8.0, 0.0, 4.0, 8.0, 0.0)
+    assert star.metal_area == pytest.approx(star.outline().area) and star.edge_count == 32
+    with pytest.raises(Exception, match="do not fit a chamfer"):
+        TeethXY(10.0, 1, 1.0, 2.0, 8.0, 0.0, 2.0, 8.0, 0.0, 4.0, 8.0, 0.0)
+
+
+def test_score_command_solves_a_plate_on_every_soil(tmp_path, monkeypatch, capsys):
+    """The real thing, small: a 4 m square at a 1.5 m mesh on the soil set, the soils solved together."""
+    from groundplane.cli import main
+
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path / "cache"))
+    argv = ["score", "square", "--side", "4", "--mesh", "1.5", "--blade-cells", "4", "4", "--freqs", "55:97:4",
+            "--n-lst", "24", "--workers", "0"]
+    assert main([*argv, "--json", "-o", str(tmp_path / "out")]) == 0
+    row = json.loads(capsys.readouterr().out)
+    assert len(row["members"]) == 5 and row["scenario_set"] == "soil"
+    losses = {m["member"]: m["max_ground_loss"] for m in row["members"]}
+    assert all(0.001 < v < 0.3 for v in losses.values())
+    assert row["max_loss"] == max(losses.values()) and row["feasible"] is False  # a 4 m plate loses more than 0.5 %
+    assert (tmp_path / "out" / "report.md").read_text().count("| eps_r") >= 4
+    assert main([*argv, "--max-loss", "none", "--scenarios", "nominal"]) == 0
+    assert "meets the constraints" in capsys.readouterr().out
+    assert main([*argv, "--scenarios", "nope"]) == 2
+    assert main([*argv, "--max-loss", "2"]) == 2
