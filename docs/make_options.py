@@ -15,9 +15,11 @@ COMMANDS = Path(__file__).with_name("commands.md")
 def options_block() -> str:
     """The generated table, between its markers."""
     from groundplane.options import markdown_table
-    from optimise.cli import eval_option_groups
+    from optimise.cli import SCENARIO_GROUP, eval_option_groups
+    from optimise.scenarios import ScenarioOptions
 
-    return f"{BEGIN}\n{markdown_table(eval_option_groups())}\n{END}"
+    groups = [*eval_option_groups(), (SCENARIO_GROUP, ScenarioOptions)]
+    return f"{BEGIN}\n{markdown_table(groups)}\n{END}"
 
 
 def with_block(text: str) -> str:

@@ -636,9 +636,9 @@ class ScenarioOptions:
     """What a design is scored on and held to, as command-line options and a sweep's
     ``[scenarios]`` table: the scenario set, its aggregate, the loss constraints."""
 
-    scenarios: str = option("soil", "the uncertainty each design is scored on: nominal (the settings as given), "
+    scenarios: str = option("soil", "the uncertainty each design is scored on (a name, or a TOML file of members): nominal (the settings as given), "
                             "soil (the paper's section-5 corners and MRO), model (feed 4 / 125.2 cm x plate 2.5 / "
-                            "10 mm), as-built, field (all of them), or a TOML file of members", metavar="SET|FILE")
+                            "10 mm), as-built, field (all of them)", metavar="SET")
     aggregate: str = option("", "how the members' FoMs make one: mean, worst, or worst-K (the mean of the worst K) "
                             "(default: the set's own, worst for the built-in sets)", metavar="HOW")
     max_loss: float | None = option(DEFAULT_MAX_LOSS, "the largest ground loss in the fit band on every soil member, a "
