@@ -70,11 +70,15 @@ def check_output_dir(path: str | os.PathLike) -> Path:
 
 
 def warn_once(key: str, message: str) -> None:
-    """Print a warning on stderr the first time ``key`` is seen in this process."""
+    """Print a warning on stderr the first time ``key`` is seen in this process or its parents
+    (worker processes inherit what was said through the environment: one warning, not one a
+    worker)."""
     import sys
 
-    if key not in _WARNED:
+    said = set(filter(None, os.environ.get("GROUNDPLANE_WARNED", "").split("\x1f")))
+    if key not in _WARNED and key not in said:
         _WARNED.add(key)
+        os.environ["GROUNDPLANE_WARNED"] = "\x1f".join(said | {key})
         print(f"groundplane: warning: {message}", file=sys.stderr)
 
 

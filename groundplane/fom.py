@@ -56,6 +56,8 @@ MIN_POINTS_PER_TERM = 2  # a 5-term fit on 6-7 points scored 55-92 mK for a 240 
 MAX_GAP_FRACTION = 1 / 8  # 55-97 MHz: 5.25 MHz; a beam with 61-89 MHz removed scored 83.1 mK for 239.5
 MAX_LSTS = 1440  # every minute of LST: the horizon-sky product grows as LSTs x directions
 MAX_BETA = 10.0  # sky spectral indices are 2-3; far outside, (nu/408)^-beta over- or underflows
+MAX_GAIN = 1e6  # linear (60 dBi): a wide-beam antenna's gain is a few; above this the spectra overflow the fit
+NU0_RANGE = 2.0  # nu0 within this factor of the fit band: 1e20 or 1e-300 MHz scored 554 and 2.8e6 mK, 1e308 LinAlgError
 
 
 @dataclass(frozen=True)
@@ -69,8 +71,8 @@ class FomSettings:
     n_terms: int = option(paper.LINLOG_TERMS, "LinLog terms", flag="--terms")
     antenna_azimuth_deg: float = option(EXCITATION_AZIMUTH_DEG, "excitation axis azimuth from North through East "
                                         "(deg)", flag="--antenna-azimuth", metavar="DEG")
-    site: Site = option(MRO, f"observing site: {', '.join(SITES)} (or --lat and --lon)", parse=site_by_name,
-                        metavar="NAME")
+    site: Site | None = option(None, f"observing site: {', '.join(SITES)} (or --lat and --lon; default MRO)",
+                               parse=site_by_name, metavar="NAME")
     lat_deg: float | None = option(None, "site latitude (deg, geodetic), with --lon: a site not in --site's list",
                                    flag="--lat", metavar="DEG")
     lon_deg: float | None = option(None, "site east longitude (deg), with --lat", flag="--lon", metavar="DEG")
@@ -96,9 +98,10 @@ class FomSettings:
         if not 1 <= self.n_lst <= MAX_LSTS:
             raise SettingsError(f"--n-lst {self.n_lst}: must be 1-{MAX_LSTS} (every minute of LST at most; the paper "
                                 "scores 360, every 4 min)")
-        if not (math.isfinite(self.nu0_mhz) and self.nu0_mhz > 0):
-            raise SettingsError(f"--nu0 {self.nu0_mhz:g}: the LinLog reference frequency must be a positive number "
-                                "of MHz")
+        if not (math.isfinite(self.nu0_mhz) and lo / NU0_RANGE <= self.nu0_mhz <= hi * NU0_RANGE):
+            raise SettingsError(f"--nu0 {self.nu0_mhz:g}: the LinLog reference frequency must lie within a factor "
+                                f"{NU0_RANGE:g} of the fit band ({lo / NU0_RANGE:g}-{hi * NU0_RANGE:g} MHz; the paper's "
+                                f"75 MHz in 55-97): far from it ln(nu/nu0)^m is ill-conditioned and the fit meaningless")
         if not (math.isfinite(self.beta) and abs(self.beta) <= MAX_BETA):
             raise SettingsError(f"--beta {self.beta:g}: a sky spectral index is a few (the paper's 2.55); "
                                 f"|beta| <= {MAX_BETA:g} is accepted")
@@ -108,8 +111,13 @@ class FomSettings:
             if not (math.isfinite(self.lat_deg) and abs(self.lat_deg) <= 90 and math.isfinite(self.lon_deg)):
                 raise SettingsError(f"--lat {self.lat_deg:g} --lon {self.lon_deg:g}: latitude must be -90..90 deg, "
                                     "longitude finite")
+            if self.site is not None and (self.site.lat_deg, self.site.lon_deg) != (self.lat_deg, self.lon_deg):
+                raise SettingsError(f"--site {self.site.name} and --lat {self.lat_deg:g} --lon {self.lon_deg:g} are two "
+                                    "places: give the site's name or its coordinates, not both")
             object.__setattr__(self, "site", Site(f"lat {self.lat_deg:g} lon {self.lon_deg:g}", self.lat_deg,
                                                   self.lon_deg))
+        elif self.site is None:
+            object.__setattr__(self, "site", MRO)
         if self.sky != "haslam" and self.subtract_cmb:
             raise SettingsError(f"--subtract-cmb scales the Haslam map without its CMB; --sky {self.sky} gives "
                                 "the sky at each frequency (CMB included) and is not scaled")
@@ -249,6 +257,23 @@ def antenna_temperature(
     return _t_ant_from_products(beam.freqs_mhz, gwt, gw, settings)
 
 
+def check_products(beam: Beam, gwt: np.ndarray, gw: np.ndarray) -> None:
+    """Refuse a beam the FoM cannot score: a frequency whose gain integrates to zero (no beam
+    there: every spectrum would be 0 and the FoM 0 mK), or gains so large the sky products
+    overflow (a dB column read as linear?)."""
+    src = beam.meta.get("source", "beam")
+    bad = np.flatnonzero(~np.isfinite(gw) | ~np.all(np.isfinite(gwt), axis=1) | (beam.gain.max(axis=(1, 2)) > MAX_GAIN))
+    if bad.size:
+        raise BeamFormatError(f"{src}: its gain at {beam.freqs_mhz[bad[0]]:g} MHz (largest {beam.gain.max():.3g}) "
+                              "overflows the sky integral; a linear power gain is a few at most (dB read as linear?)")
+    zero = np.flatnonzero(gw <= 0)
+    if zero.size:
+        raise BeamFormatError(f"{src}: its gain is zero over the whole upper hemisphere at "
+                              f"{beam.freqs_mhz[zero[0]]:g} MHz"
+                              + (f" (and {zero.size - 1} more frequencies)" if zero.size > 1 else "")
+                              + ": there is no beam to score there")
+
+
 def _t_ant_from_products(freqs, gwt, gw, settings: FomSettings) -> np.ndarray:
     scale = (np.asarray(freqs) / 408.0) ** (-settings.beta)
     if settings.sky != "haslam":  # a model's maps are the sky at each frequency already
@@ -294,7 +319,7 @@ def fit_band_mask(freqs_mhz: np.ndarray, band: tuple[float, float], n_terms: int
             f"({MIN_POINTS_PER_TERM} per term): with fewer, the fit follows the beam's structure and hides it"
         )
     inside = f[mask]
-    gaps = np.diff(np.concatenate([[max(lo, inside[0])], inside, [min(hi, inside[-1])]]))
+    gaps = np.diff(np.concatenate([[lo], inside, [hi]]))  # from the band's edges: a hole at an end is a hole too
     widest = int(np.argmax(gaps))
     if gaps[widest] > MAX_GAP_FRACTION * (hi - lo) + 1e-9:
         a, b = np.concatenate([[lo], inside, [hi]])[widest:widest + 2]
@@ -332,6 +357,8 @@ def fom_from_spectra(
         lst_hours = np.asarray(lst_hours)[::k] + settings.lst_bin_hours / 2
     res = linlog_residuals(freqs_mhz[mask], t_ant[mask], settings)
     fom = np.sqrt(np.mean(res**2, axis=0))
+    if not np.all(np.isfinite(fom)):  # the checks upstream should make this unreachable: never print "nan mK"
+        raise SettingsError("the FoM is not finite for these spectra and settings (an overflow in the fit)")
     return FomResult(freqs_mhz, np.asarray(lst_hours), t_ant, mask, res, fom, settings)
 
 
@@ -345,6 +372,7 @@ def figure_of_merit(
     """The FoM of a beam. With ``correction_beam`` the spectra are first divided by the
     beam-correction factor computed from that beam model (Mozdzen et al. 2019)."""
     gwt, gw, lst_hours = sky_products(beam, settings, progress)
+    check_products(beam, gwt, gw)
     t_ant = _t_ant_from_products(beam.freqs_mhz, gwt, gw, settings)
     extra: dict[str, Any] = {}
     if correction_beam is not None:
@@ -373,9 +401,10 @@ def beam_correction_factor(
         nu_ref_mhz = float(beam.freqs_mhz[np.argmin(np.abs(beam.freqs_mhz - settings.nu0_mhz))])
     iref = _freq_index(beam, nu_ref_mhz)
     if settings.sky == "haslam":  # the 408 MHz map: its scale to nu_ref cancels in the ratio
-        gwt, _, _ = beam_sky_products(beam, sky_for(beam, settings))
+        gwt, gw, _ = beam_sky_products(beam, sky_for(beam, settings))
     else:
-        gwt, _, _ = model_sky_products(beam, settings, at_mhz=nu_ref_mhz)
+        gwt, gw, _ = model_sky_products(beam, settings, at_mhz=nu_ref_mhz)
+    check_products(beam, gwt, gw)  # a zero correction beam would divide by zero
     b = gwt / gwt[iref][None, :]
     if freqs_mhz is None:
         return b

@@ -42,6 +42,7 @@ SHAPES: dict[str, type["GroundPlane"]] = {}
 
 MAX_COUNT = 1000  # teeth per side, polygon sides, star points: more is a typo (and millions of vertices)
 MIN_EXTENT_M, MAX_EXTENT_M = 1.0, 1000.0  # tip to tip
+MAX_VERTICES = 10_000  # a polygon outline's corners: as-built outlines have tens
 MIN_ANGLE_DEG = 1e-3  # an outline vertex sharper than this folds back on itself (a cut's zero-width sliver)
 
 
@@ -633,6 +634,9 @@ class PolygonPlane(GroundPlane, kind="polygon"):
             raise ShapeError("PolygonPlane: vertices must be a list of (x, y) pairs in metres") from None
         if v.ndim != 2 or v.shape[1] != 2 or v.shape[0] < 3:
             raise ShapeError(f"PolygonPlane: need at least 3 (x, y) vertices, got array of shape {v.shape}")
+        if v.shape[0] > MAX_VERTICES:  # before shapely and the mesher spend minutes on it
+            raise ShapeError(f"PolygonPlane: {v.shape[0]:,} vertices; at most {MAX_VERTICES:,} (an outline a field crew "
+                             "can lay has tens)")
         if not np.all(np.isfinite(v)):
             raise ShapeError("PolygonPlane: vertices must be finite")
         object.__setattr__(self, "vertices", tuple((float(x), float(y)) for x, y in v))
@@ -673,15 +677,20 @@ def preset(name: str) -> GroundPlane:
 
 def from_dict(d: dict[str, Any]) -> GroundPlane:
     """Build a shape from ``{"shape": kind, **params}`` (the sweep/optimiser format) or a preset."""
+    if not isinstance(d, dict):
+        raise ShapeError(f"a design is a table of 'shape' and its parameters (or 'preset'), got {type(d).__name__}")
     d = dict(d)
     if "preset" in d:
         extra = set(d) - {"preset"}
         if extra:
-            raise ShapeError(f"preset '{d['preset']}' takes no other keys; got {sorted(extra)}")
+            raise ShapeError(f"preset takes no other keys; got {sorted(map(str, extra))}")
+        if not isinstance(d["preset"], str):
+            raise ShapeError(f"preset must be a name, got {type(d['preset']).__name__}")
         return preset(d["preset"])
     kind = d.pop("shape", None)
-    if kind not in SHAPES:
-        raise ShapeError(f"unknown shape '{kind}'; choose one of {', '.join(SHAPES)}")
+    if not isinstance(kind, str) or kind not in SHAPES:
+        shown = kind if isinstance(kind, str) else f"a {type(kind).__name__}"
+        raise ShapeError(f"unknown shape '{str(shown)[:40]}'; choose one of {', '.join(SHAPES)}")
     cls = SHAPES[kind]
     names = {p.name for p in cls.parameters()}
     unknown = set(d) - names
@@ -691,7 +700,10 @@ def from_dict(d: dict[str, Any]) -> GroundPlane:
     if missing:
         raise ShapeError(f"{cls.__name__}: missing parameter(s) {missing}")
     if cls is PolygonPlane:
-        d["vertices"] = tuple(tuple(p) for p in d.get("vertices", ()))
+        v = d.get("vertices")
+        if not isinstance(v, (list, tuple)) or not all(isinstance(p, (list, tuple)) for p in v):
+            raise ShapeError("PolygonPlane: vertices must be a list of [x, y] pairs in metres")
+        d["vertices"] = tuple(tuple(p) for p in v)
     return cls(**d)
 
 
@@ -712,10 +724,20 @@ def from_file(path: str | Path) -> GroundPlane:
         d = json.loads(path.read_text())
     except FileNotFoundError:
         raise ShapeError(f"{path}: no such design file") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ShapeError(f"{path}: not a design file (not readable JSON: {exc})") from None
+    except (OSError, UnicodeDecodeError, ValueError) as exc:  # JSONDecodeError, a 5000-digit number
+        raise ShapeError(f"{path}: not a design file (not readable JSON: {str(exc)[:120]})") from None
+    except RecursionError:
+        raise ShapeError(f"{path}: not a design file (nested too deeply to be one)") from None
     if not isinstance(d, dict):
         raise ShapeError(f"{path}: not a design file (expected a JSON object with 'shape' or 'preset')")
+    try:
+        return _design_of(d, path)
+    except ShapeError as exc:
+        raise ShapeError(str(exc) if str(exc).startswith(f"{path}:") else f"{path}: {exc}") from None
+
+
+def _design_of(d: dict[str, Any], path: Path) -> GroundPlane:
+    """The plane of a design file's JSON object (its three forms: see :func:`from_file`)."""
     if "shape" in d and "params" not in d or "preset" in d:
         return from_dict(d)
     if isinstance(d.get("params"), dict):
@@ -732,6 +754,8 @@ def from_file(path: str | Path) -> GroundPlane:
         if kind is None:
             raise ShapeError(f"{path}: the design's family is not named ('shape', a search.json beside it, "
                              "or a 'name' like 'Teeth(...)')")
+        if not isinstance(kind, str):
+            raise ShapeError(f"{path}: 'shape' must be a family's name")
         return from_dict({"shape": kind, **d["params"]})
     raise ShapeError(f"{path}: not a design file (expected 'shape' with its parameters, 'preset', "
                      "or an optimiser's best.json with 'params')")

@@ -344,9 +344,9 @@ def _history_plot(plt, history, path: Path, max_area: float) -> None:
     b.set_ylabel("FoM (mK)")
     b.grid(alpha=0.3)
     fig.colorbar(sc, ax=b, label="evaluation")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    from groundplane.plots import finish_figure
+
+    finish_figure(fig, path, dpi=100)  # a full disk: one line naming the file, not a traceback
 
 
 @command("score", "solve a design on every member of a scenario set and score it: each member's FoM and ground "

@@ -12,7 +12,7 @@ import numpy as np
 
 from groundplane.cli import invocation
 from groundplane.files import atomic_path
-from groundplane.plots import pyplot
+from groundplane.plots import pyplot, save_figure
 from groundplane.shapes import from_dict
 
 from . import provenance
@@ -213,7 +213,7 @@ def _figures(ok: list[dict[str, Any]], out: Path) -> dict[str, Path]:
             ax.axis("off")
         fig.tight_layout()
         figs["outlines"] = out / "outlines.png"
-        fig.savefig(figs["outlines"], dpi=100)
+        save_figure(fig, figs["outlines"], dpi=100)
         plt.close(fig)
     fig, ax = plt.subplots(figsize=(9, 4.5))
     for r in ok:
@@ -227,7 +227,7 @@ def _figures(ok: list[dict[str, Any]], out: Path) -> dict[str, Path]:
     ax.legend(fontsize=7, ncol=2)
     fig.tight_layout()
     figs["fom_vs_lst"] = out / "fom_vs_lst.png"
-    fig.savefig(figs["fom_vs_lst"], dpi=100)
+    save_figure(fig, figs["fom_vs_lst"], dpi=100)
     plt.close(fig)
     fig, axes = plt.subplots(2, 2, figsize=(10, 6), sharex=True)
     for ax, h in zip(axes.ravel(), RESIDUAL_LSTS_H):
@@ -244,7 +244,7 @@ def _figures(ok: list[dict[str, Any]], out: Path) -> dict[str, Path]:
         axes[0, 0].legend(fontsize=6)
     fig.tight_layout()
     figs["residuals"] = out / "residuals.png"
-    fig.savefig(figs["residuals"], dpi=100)
+    save_figure(fig, figs["residuals"], dpi=100)
     plt.close(fig)
     with_area = [r for r in ok if r.get("metal_area_m2") is not None]
     if with_area:
@@ -261,6 +261,6 @@ def _figures(ok: list[dict[str, Any]], out: Path) -> dict[str, Path]:
         ax.legend(fontsize=8)
         fig.tight_layout()
         figs["fom_vs_area"] = out / "fom_vs_area.png"
-        fig.savefig(figs["fom_vs_area"], dpi=100)
+        save_figure(fig, figs["fom_vs_area"], dpi=100)
         plt.close(fig)
     return figs

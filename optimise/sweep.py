@@ -38,6 +38,7 @@ per-frequency cache. Nothing computed is lost, even on kill -9.
 from __future__ import annotations
 
 import itertools
+import math
 import sys
 import tomllib
 from pathlib import Path
@@ -59,6 +60,8 @@ from .evaluate import (
     row_key,
 )
 
+MAX_FAMILY_MEMBERS = 100_000  # combinations of one [[family]]'s values
+
 __all__ = ["ConfigError", "ResultStore", "load_config", "run_sweep", "summary_table", "settings_from_tables"]
 
 def settings_from_tables(solver: dict[str, Any], fom: dict[str, Any], where: str) -> EvalSettings:
@@ -78,6 +81,14 @@ def load_config(path: str | Path) -> tuple[list[Candidate], list[dict[str, Any]]
     if unknown:
         raise ConfigError(f"{path}: unknown table(s) {sorted(unknown)}; expected solver, fom, scenarios, candidate, "
                           "family")
+    for table in ("solver", "fom"):
+        if not isinstance(cfg.get(table, {}), dict):
+            raise ConfigError(f"{path}: '{table}' must be a [{table}] table, got {type(cfg[table]).__name__}")
+    for table in ("candidate", "family"):
+        entries = cfg.get(table, [])
+        if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
+            raise ConfigError(f"{path}: '{table}' must be [[{table}]] tables (one per {table}), got "
+                              f"{type(entries).__name__}")
     if "scenarios" in cfg and not isinstance(cfg["scenarios"], dict):
         raise ConfigError(f"{path}: 'scenarios' must be a [scenarios] table (set, aggregate, max_loss, max_loss_spread)")
     settings = settings_from_tables(cfg.get("solver", {}), cfg.get("fom", {}), f"{path}: ")
@@ -136,6 +147,9 @@ def _candidate(c: dict[str, Any], path: Path, where: str) -> Candidate:
                 raise ConfigError(f"a preset candidate takes preset and name only; not {sorted(extra)}")
             return Candidate(c.get("name", c["preset"]), plane=from_dict({"preset": c["preset"]}))
         params = {k: v for k, v in c.items() if k != "name"}
+        if not isinstance(params.get("shape"), str):
+            raise ConfigError("a shape candidate names its family as a string ('shape = \"square\"'), a preset "
+                              "('preset = ...') or a beam file ('beam = ...')")
         return Candidate(c.get("name", _auto_name(params)), plane=from_dict(params))
     except (UserInputError, TypeError) as exc:
         raise ConfigError(f"{where}: {exc}") from None
@@ -145,7 +159,7 @@ def _family(fam: dict[str, Any], where: str) -> tuple[list[Candidate], list[dict
     """Every combination of a ``[[family]]``'s listed values; impossible members become rows."""
     if "shape" not in fam:
         raise ConfigError(f"{where} needs 'shape'")
-    if fam["shape"] not in SHAPES:
+    if not isinstance(fam["shape"], str) or fam["shape"] not in SHAPES:
         raise ConfigError(f"{where}: unknown shape {fam['shape']!r}; choose one of {', '.join(SHAPES)}")
     keys = [k for k in fam if k != "shape"]
     own = {p.name for p in SHAPES[fam["shape"]].parameters()}
@@ -153,6 +167,14 @@ def _family(fam: dict[str, Any], where: str) -> tuple[list[Candidate], list[dict
         raise ConfigError(f"{where}: {fam['shape']} has no parameter(s) {sorted(set(keys) - own)}; it takes "
                           f"{sorted(own)}")
     grids = [fam[k] if isinstance(fam[k], list) else [fam[k]] for k in keys]
+    size = math.prod(len(g) for g in grids)
+    if size > MAX_FAMILY_MEMBERS:  # before expanding it: 1.5e9 members were still being listed after 40 s
+        raise ConfigError(f"{where}: {size:,} combinations of its values; at most {MAX_FAMILY_MEMBERS:,} (a sweep "
+                          "of that many solves would take years): list fewer values")
+    for k, g in zip(keys, grids):
+        bad = [v for v in g if isinstance(v, (list, dict)) or isinstance(v, bool)]
+        if bad:
+            raise ConfigError(f"{where}: {k} = {bad[0]!r}: each value is a number (or a list of numbers)")
     members, invalid = [], []
     for combo in itertools.product(*grids):
         params = {"shape": fam["shape"], **dict(zip(keys, combo))}

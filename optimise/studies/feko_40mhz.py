@@ -10,7 +10,7 @@ import numpy as np
 from groundplane.compare import direction_differences, shared_grid, upper_hemisphere_efficiency
 from groundplane.design import Design, Soil
 from groundplane.errors import UserInputError
-from groundplane.plots import pyplot
+from groundplane.plots import pyplot, save_figure
 from groundplane.shapes import PRESETS
 from solvers.engines import make_solver
 from solvers.engines.nec import NecSettings
@@ -129,7 +129,7 @@ def _plot(rows: list, path: Path) -> None:
     axes[1, 0].set_ylabel("ours - FEKO (dB)")
     axes[0, 1].legend(fontsize=6.5, loc="lower right")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
 
 

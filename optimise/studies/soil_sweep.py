@@ -10,7 +10,7 @@ from typing import Any
 
 from groundplane import paper
 from groundplane.design import Soil
-from groundplane.plots import pyplot
+from groundplane.plots import pyplot, save_figure
 from groundplane.shapes import preset
 
 from ..evaluate import Candidate, EvalSettings
@@ -117,5 +117,5 @@ def _soil_plot(rows: list[dict], path: Path) -> None:
     b.legend(fontsize=7)
     fig.suptitle("FoM vs soil properties")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)

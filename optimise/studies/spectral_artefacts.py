@@ -7,7 +7,7 @@ import numpy as np
 
 from groundplane import paper
 from groundplane.design import Design, InfinitePEC, Soil
-from groundplane.plots import pyplot
+from groundplane.plots import pyplot, save_figure
 from groundplane.shapes import PRESETS
 from solvers.engines.nec import NecSettings, build_model
 
@@ -97,7 +97,7 @@ def spectral_artefacts(out: Path, command: str) -> None:
     axes[1].set_xlabel("LST-averaged FoM (mK)")
     axes[1].legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(out / "spectral_artefacts.png", dpi=120)
+    save_figure(fig, out / "spectral_artefacts.png", dpi=120)
     plt.close(fig)
     lines += ["", "![spectral artefacts](spectral_artefacts.png)"]
     (out / "spectral_artefacts.md").write_text("\n".join(lines) + "\n")

@@ -29,14 +29,19 @@ class BeamCache:
 
     def __init__(self, root: str | Path | None = None) -> None:
         self.root = Path(root) if root else cache_dir()
-        (self.root / "beams").mkdir(parents=True, exist_ok=True)
-        (self.root / "partial").mkdir(parents=True, exist_ok=True)
+        try:
+            (self.root / "beams").mkdir(parents=True, exist_ok=True)
+            (self.root / "partial").mkdir(parents=True, exist_ok=True)
+        except OSError as exc:  # a read-only or impossible cache: solve anyway, keep nothing (said once)
+            warn_once("beam-cache", f"the beam cache {self.root} cannot be written ({exc.strerror or exc}); results "
+                                    "are not kept for reuse (set GROUNDPLANE_CACHE to a writable folder)")
 
     def path(self, key: str) -> Path:
         return self.root / "beams" / f"{key}.npz"
 
     def get(self, key: str) -> Beam | None:
-        """The finished beam of ``key``, or None (a damaged or foreign entry is deleted)."""
+        """The finished beam of ``key``, or None: a damaged or foreign entry, or one whose gain no
+        longer matches the checksum written with it, is deleted (and solved again)."""
         p = self.path(key)
         if not p.exists():
             return None
@@ -44,15 +49,20 @@ class BeamCache:
             beam = Beam.load(p)
         except BeamFormatError:
             beam = None
-        if beam is None or beam.meta.get("cache_key") != key:
+        said = beam.meta.get("gain_sha256") if beam is not None else None
+        if beam is None or beam.meta.get("cache_key") != key or (said is not None and said != gain_checksum(beam.gain)):
+            if beam is not None and said is not None:
+                warn_once(f"checksum {key}", f"{p}: its gain does not match the checksum written with it; solving "
+                                             "it again")
             p.unlink(missing_ok=True)
             return None
         return beam
 
     def put(self, key: str, beam: Beam) -> Path:
-        """Store a finished beam (its meta must carry ``cache_key``) and drop its partials."""
-        if beam.meta.get("cache_key") != key:
-            beam = beam.with_meta(cache_key=key)
+        """Store a finished beam (its meta must carry ``cache_key``) with its gain's checksum, and
+        drop its partials."""
+        if beam.meta.get("cache_key") != key or beam.meta.get("gain_sha256") != gain_checksum(beam.gain):
+            beam = beam.with_meta(cache_key=key, gain_sha256=gain_checksum(beam.gain))
         try:
             p = beam.save(self.path(key))
         except (OutputError, UserInputError) as exc:  # the result is still returned; only the reuse is lost
@@ -101,16 +111,34 @@ class BeamCache:
                 continue
             try:
                 with np.load(f, allow_pickle=False) as z:
-                    extras = {k: float(z[k]) for k in z.files if k not in ("freq", "gain", "seconds")}
-                    out[float(z["freq"])] = (np.array(z["gain"]), float(z["seconds"]), extras)
+                    extras = {k: float(z[k]) for k in z.files if k not in ("freq", "gain", "seconds", "gain_sha256")}
+                    gain = np.array(z["gain"], dtype=float)
+                    said = str(z["gain_sha256"]) if "gain_sha256" in z.files else None
+                    if not np.all(np.isfinite(gain)) or (said is not None and said != gain_checksum(gain)):
+                        raise ValueError("not the gain that was written")
+                    out[float(z["freq"])] = (gain, float(z["seconds"]), extras)
             except Exception:  # noqa: BLE001 - any damage: recompute that frequency
+                warn_once(f"partial {key}", f"{d}: a stored frequency is damaged or altered; solving it again")
                 f.unlink(missing_ok=True)
+        shapes = [v[0].shape for v in out.values()]
+        if len(set(shapes)) > 1:  # one of another shape (another model's, or damaged): keep the most common
+            common = max(set(shapes), key=shapes.count)
+            for freq in [k for k, v in out.items() if v[0].shape != common]:
+                del out[freq]
+                (d / f"{freq:.6f}.npz").unlink(missing_ok=True)
         return out
 
     def put_partial(self, key: str, freq: float, gain: np.ndarray, seconds: float, **extras: float) -> None:
         """Store one solved frequency (atomically)."""
         try:
             with atomic_path(self.root / "partial" / key / f"{freq:.6f}.npz", suffix=TMP_SUFFIX) as tmp:
-                np.savez(tmp, freq=freq, gain=gain, seconds=seconds, **extras)
+                np.savez(tmp, freq=freq, gain=gain, seconds=seconds, gain_sha256=gain_checksum(gain), **extras)
         except (OutputError, UserInputError) as exc:  # the solve goes on; an interruption then loses more
             warn_once("beam-cache", f"the beam cache cannot be written ({exc}); results are not kept for reuse")
+
+
+def gain_checksum(gain: np.ndarray) -> str:
+    """sha256 of a gain array's float64 bytes: what a cache entry is checked against on reading."""
+    import hashlib
+
+    return hashlib.sha256(np.ascontiguousarray(gain, dtype=float).tobytes()).hexdigest()
