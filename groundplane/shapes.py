@@ -163,6 +163,15 @@ class GroundPlane:
         return plane if isinstance(plane, cls) else None
 
     @classmethod
+    def sample(cls, u: dict[str, float], integer: dict[str, int]) -> dict[str, float]:
+        """The continuous parameters for unit-cube coordinates ``u`` (one in [0, 1] per parameter):
+        a space-filling sample of the family. A family whose validity couples its parameters
+        (teeth that must fit their side) maps the cube onto its valid region, so that a sample
+        is rarely wasted; the default spans each parameter's bounds."""
+        return {p.name: p.bounds[0] + u[p.name] * (p.bounds[1] - p.bounds[0])  # type: ignore[index]
+                for p in cls.parameters() if p.bounds is not None and p.optimise}
+
+    @classmethod
     def optimiser_start(cls, max_area: float, integer: dict[str, int]) -> dict[str, float]:
         """A valid starting point with metal area below ``max_area``: the family's
         parameters at the middle of their bounds, lengths scaled to 80 % of the budget."""
@@ -430,6 +439,13 @@ class Teeth(GroundPlane, kind="teeth"):
                 "tooth_height": min(12.0, 0.3 * max_area / (4 * n * base * 0.75))}
 
     @classmethod
+    def sample(cls, u: dict[str, float], integer: dict[str, int]) -> dict[str, float]:
+        p = super().sample(u, integer)
+        lo, hi = _bounds(cls, "tooth_base")
+        p["tooth_base"] = lo + u["tooth_base"] * max(0.0, min(hi, p["side"] / integer["teeth_per_side"]) - lo)
+        return p
+
+    @classmethod
     def member(cls, plane: GroundPlane) -> "Teeth | None":
         """``plane`` as a member of this family, when it is one exactly (same outline)."""
         if isinstance(plane, Teeth):
@@ -441,6 +457,11 @@ class Teeth(GroundPlane, kind="teeth"):
         if isinstance(plane, Square):
             return cls(plane.side, 1, 0.5 * plane.side, 0.0, 0.0)
         return None
+
+
+def _bounds(cls: type[GroundPlane], name: str) -> tuple[float, float]:
+    """A parameter's declared optimiser bounds."""
+    return next(p.bounds for p in cls.parameters() if p.name == name)  # type: ignore[return-value]
 
 
 def _tooth(centre: float, base: float, height: float, tip: float) -> list[tuple[float, float]]:
@@ -547,6 +568,20 @@ class TeethXY(GroundPlane, kind="teeth-xy"):
                 "height_y": height, "tip_y": 0.5, "base_d": 0.0, "height_d": 0.0, "tip_d": 0.5}
 
     @classmethod
+    def sample(cls, u: dict[str, float], integer: dict[str, int]) -> dict[str, float]:
+        """The cube onto the valid region: the chamfer leaves every tooth a base of at least the
+        lower bound, each base fits its segment beside the chamfers, the corner tooth its chamfer."""
+        p = super().sample(u, integer)
+        seg = p["side"] / integer["teeth_per_side"]
+        base_lo, base_hi = _bounds(cls, "base_x")
+        p["chamfer"] = u["chamfer"] * max(0.0, min(_bounds(cls, "chamfer")[1], (seg - base_lo) / 2))
+        for axis in ("x", "y"):
+            room = min(base_hi, seg - 2 * p["chamfer"])
+            p[f"base_{axis}"] = base_lo + u[f"base_{axis}"] * max(0.0, room - base_lo)
+        p["base_d"] = u["base_d"] * min(_bounds(cls, "base_d")[1], p["chamfer"] * math.sqrt(2.0))
+        return p
+
+    @classmethod
     def member(cls, plane: GroundPlane) -> "TeethXY | None":
         """``plane`` as a member of this family, when it is one exactly (same outline)."""
         if isinstance(plane, TeethXY):
@@ -596,6 +631,13 @@ class Star(GroundPlane, kind="star"):
     def area_of(cls, p: dict[str, Any]) -> float:
         n = int(p["n_points"])
         return n * p["outer_radius"] * p["inner_radius"] * math.sin(math.pi / n)
+
+    @classmethod
+    def sample(cls, u: dict[str, float], integer: dict[str, int]) -> dict[str, float]:
+        p = super().sample(u, integer)
+        lo, hi = _bounds(cls, "inner_radius")
+        p["inner_radius"] = lo + u["inner_radius"] * max(0.0, min(hi, 0.98 * p["outer_radius"]) - lo)
+        return p
 
     @classmethod
     def constraints(cls, p: dict[str, Any]) -> list[tuple[float, str]]:

@@ -63,6 +63,11 @@ class Family:
         """Each <= 0 when valid."""
         return [v for v, _ in self.cls.constraints(self.params(x, n))]
 
+    def sample(self, u: np.ndarray, n: int | None) -> np.ndarray:
+        """The family's own map of unit-cube coordinates ``u`` onto its (valid) parameters."""
+        p = self.cls.sample(dict(zip(self.names, map(float, u))), {self.integer: n} if self.integer else {})
+        return np.array([p[k] for k in self.names])
+
     def start(self, max_area: float, n: int | None) -> np.ndarray:
         """A valid x with metal area below the budget."""
         x = self.cls.optimiser_start(max_area, {self.integer: n} if self.integer else {})
@@ -466,8 +471,8 @@ def space_filling(fam: Family, ints: tuple, max_area: float, count: int, seed: i
     lo, hi = np.array(fam.lower), np.array(fam.upper)
     out: list[tuple[np.ndarray, int | None]] = []
     for u in qmc.Sobol(d + 1, scramble=True, seed=seed).random(2 ** 14):
-        x = lo + u[:d] * (hi - lo)
         n = ints[min(int(u[d] * len(ints)), len(ints) - 1)]
+        x = np.clip(fam.sample(u[:d], n), lo, hi)
         if EXPLORE_MIN_FILL * max_area <= fam.area(x, n) <= max_area and all(v <= 0 for v in fam.validity(x, n)):
             out.append((x, n))
             if len(out) == count:
@@ -489,7 +494,7 @@ def _global_search(fam: Family, ints: tuple, ev: "_Evaluator", algorithm: str, o
     """Seeds and a space-filling sample, then local refinement from the best few."""
     explore = max(1, math.ceil(EXPLORE_FRACTION * ev.budget))
     seeds = seeds_for(fam, ev.max_area, ints, extra)[:explore]
-    sample = space_filling(fam, ints, ev.max_area, 4 * explore)  # spares for designs the mesh cannot hold
+    sample = space_filling(fam, ints, ev.max_area, 10 * explore)  # spares for designs the mesh cannot hold
     designs = [(x, n, plane, name) for name, plane, x, n in seeds] + [(x, n, None, None) for x, n in sample]
     if executor != "local":
         _presolve(designs, ev, out, executor, scheduler, explore)

@@ -184,3 +184,15 @@ def test_score_command_solves_a_plate_on_every_soil(tmp_path, monkeypatch, capsy
     assert "meets the constraints" in capsys.readouterr().out
     assert main([*argv, "--scenarios", "nope"]) == 2
     assert main([*argv, "--max-loss", "2"]) == 2
+
+
+def test_a_constrained_family_samples_its_valid_region():
+    """teeth-xy's validity couples its parameters (teeth beside the chamfers, the corner tooth on
+    its chamfer): a box sample was valid 6 times in 16384 at 200 m^2; the family's own map is."""
+    from optimise.search import family, space_filling
+
+    fam = family("teeth-xy")
+    found = space_filling(fam, fam.integer_values, 200.0, 100)
+    assert len(found) == 100 and {n for _, n in found} == set(fam.integer_values)
+    for x, n in found:
+        assert all(v <= 0 for v in fam.validity(x, n)) and 100.0 <= fam.area(x, n) <= 200.0
