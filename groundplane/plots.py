@@ -123,10 +123,15 @@ def _draw_cuts(fig, spec, beams, labels, freqs) -> None:
 def _draw_derivative(fig, spec, beams, labels) -> None:
     from .fom import gain_derivative
 
-    maps = [[gain_derivative(b, phi) for phi in (0.0, 90.0)] for b in beams]
-    peak = max(float(np.max(np.abs(d))) for row in maps for (_, _, d) in row) or 1.0
+    maps = [[gain_derivative(b, phi) for phi in (0.0, 90.0)] if b.freqs_mhz.size > 1 else None for b in beams]
+    peak = max([float(np.max(np.abs(d))) for row in maps if row for (_, _, d) in row] + [0.0]) or 1.0
     sub = spec.subgridspec(len(beams), 2)
     for j, (row, lab) in enumerate(zip(maps, labels)):
+        if row is None:  # one frequency: no derivative in frequency to draw
+            ax = fig.add_subplot(sub[j, :])
+            ax.text(0.5, 0.5, f"{lab}: dG/dnu needs two frequencies or more", ha="center", va="center")
+            ax.axis("off")
+            continue
         for col, ((fm, elev, d), plane) in enumerate(zip(row, ("E-plane", "H-plane"))):
             ax = fig.add_subplot(sub[j, col])
             im = ax.pcolormesh(elev, fm, d, cmap="RdBu_r", vmin=-peak, vmax=peak, shading="nearest")
@@ -155,7 +160,8 @@ def _draw_poly3(fig, spec, beams, labels) -> None:
             ax.set(title=f"G - 3-term fit in nu: {title}", xlabel="frequency (MHz)", ylabel="residual gain (linear)")
     for ax in axes:
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
+        if ax.get_legend_handles_labels()[0]:  # a beam too short for the fit draws nothing
+            ax.legend(fontsize=7)
 
 
 def _draw_widths(fig, spec, beams, labels) -> None:

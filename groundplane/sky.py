@@ -316,10 +316,22 @@ def _read_checked(file: Path, load, valid) -> tuple[np.ndarray, ...] | None:
     except (OSError, ValueError, TypeError, KeyError, AttributeError, EOFError):
         ok = False
     if not ok:
-        file.unlink(missing_ok=True)
-        check.unlink(missing_ok=True)
+        _remove(file)
+        _remove(check)
         return None
     return arrays
+
+
+def _remove(path: Path) -> None:
+    """Delete a damaged cache entry, whatever it has become (a file, or a folder in its place)."""
+    import shutil
+
+    try:
+        path.unlink(missing_ok=True)
+    except IsADirectoryError:
+        shutil.rmtree(path, ignore_errors=True)
+    except OSError:
+        pass  # a read-only cache: the entry stays, and is not read
 
 
 def _write_checked(file: Path, save, arrays: tuple[np.ndarray, ...]) -> None:

@@ -405,8 +405,22 @@ def _until_flat(fam: Family, ev: "_Evaluator", algorithm: str, max_budget: int) 
 
 def integer_choices(fam: Family, integer_values: Iterable[int] | None) -> tuple:
     """The values of the family's integer parameter a search tries (the given ones, else the
-    family's own; (None,) for a family without one)."""
-    return tuple(integer_values) if integer_values else (fam.integer_values or (None,))
+    family's own; (None,) for a family without one); refused by name when the family cannot take
+    one (0 teeth, a negative count)."""
+    if not integer_values:
+        return fam.integer_values or (None,)
+    values = tuple(integer_values)
+    if fam.integer is None:
+        raise UserInputError(f"--integers: the {fam.cls.kind} family has no integer parameter")
+    from groundplane.shapes import MAX_COUNT
+
+    prm = next(p for p in fam.cls.parameters() if p.name == fam.integer)
+    low = max(1, int(prm.minimum or 1))
+    bad = [v for v in values if not isinstance(v, int) or isinstance(v, bool) or not low <= v <= MAX_COUNT]
+    if bad:
+        raise UserInputError(f"--integers {' '.join(map(str, bad))}: {fam.integer} of a {fam.cls.kind} must be a whole "
+                             f"number {low}-{MAX_COUNT}")
+    return values
 
 
 def _check_request(max_area: float, algorithm: str, budget: int, strategy: str, fam: Family, ints: tuple,

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from groundplane.beam import Beam
-from groundplane.errors import BeamFormatError
+from groundplane.errors import BeamFormatError, UserInputError
 from groundplane.files import atomic_path
 
 from . import BeamFormat, register_format
@@ -56,13 +56,21 @@ def write_uvbeam(beam: Beam, path: str | Path) -> Path:
     from pyuvdata import UVBeam
 
     path = Path(path)
+    for name, axis, unit in (("frequencies", beam.freqs_mhz, "MHz"), ("theta (zenith angle)", beam.theta_deg, "deg"),
+                             ("phi (azimuth)", beam.phi_deg, "deg")):
+        steps = np.diff(axis)
+        if steps.size and not np.allclose(steps, steps[0], rtol=1e-6, atol=1e-9):
+            shown = ", ".join(f"{v:g}" for v in axis[:6]) + (" ..." if axis.size > 6 else "")
+            raise UserInputError(f"{path}: a UVBeam beamfits file holds evenly spaced {name}, and this beam's are "
+                                 f"not ({shown} {unit}); write the native .npz instead, or solve it on an even grid "
+                                 "(e.g. --freqs LO:HI:STEP)")
     meta = {k: v for k, v in beam.meta.items() if k != "source"}
     uvb = UVBeam.new(
-        telescope_name=str(beam.meta.get("telescope", "groundplane")),
+        telescope_name=_ascii(beam.meta.get("telescope", "groundplane")),
         data_normalization="physical",
         freq_array=beam.freqs_mhz * 1e6,
-        feed_name="EDGES-style blade dipole", feed_version=str(beam.meta.get("engine", "groundplane")),
-        model_name=str(beam.meta.get("source", "groundplane beam")), model_version=str(beam.meta.get("cache_key", "1")),
+        feed_name="EDGES-style blade dipole", feed_version=_ascii(beam.meta.get("engine", "groundplane")),
+        model_name=_ascii(beam.meta.get("source", "groundplane beam")), model_version=_ascii(beam.meta.get("cache_key", "1")),
         polarization_array=["xx"], x_orientation="east",
         axis1_array=np.radians(beam.phi_deg), axis2_array=np.radians(beam.theta_deg),
         data_array=beam.gain[None, None],  # [vec 1, pol 1, f, za, az]: our [f, theta, phi]
@@ -73,6 +81,13 @@ def write_uvbeam(beam: Beam, path: str | Path) -> Path:
     with atomic_path(path, suffix=".tmp.fits") as tmp:
         uvb.write_beamfits(str(tmp), clobber=True)
     return path
+
+
+def _ascii(value) -> str:
+    """A FITS header value: printable ASCII only (a file name in another script is written with
+    escapes rather than refused by the FITS writer)."""
+    text = str(value).encode("ascii", "backslashreplace").decode("ascii")
+    return "".join(c if c.isprintable() else "?" for c in text)[:200]
 
 
 def read_uvbeam(paths: list[Path]) -> Beam:
