@@ -262,6 +262,8 @@ class Beam:
         path = Path(path)
         if path.is_dir():
             raise BeamFormatError(f"{path}: is a directory, not a beam file")
+        if path.exists() and not path.is_file():
+            raise BeamFormatError(f"{path}: not a regular file (a device or a pipe); a beam is a file on disk")
         try:
             _check_npz_sizes(path)
             with np.load(path, allow_pickle=False) as z:
@@ -339,6 +341,7 @@ MAX_AXIS_LENGTH = 1_000_000  # frequencies, angles: far beyond any real beam (1 
 # a decompression bomb: a member this large that expands this many times (real gain arrays compress
 # 1-3x; the native beams are stored uncompressed)
 BOMB_MIN_BYTES, BOMB_RATIO = 64 * 2**20, 50
+MAX_META_BYTES = 16 * 2**20
 
 
 def _check_npz_sizes(path: Path) -> None:
@@ -350,7 +353,18 @@ def _check_npz_sizes(path: Path) -> None:
 
     with zipfile.ZipFile(path) as zf:
         for info in zf.infolist():
+            name = info.filename[:-4] if info.filename.endswith(".npy") else info.filename
+            if name == "meta" and info.file_size > MAX_META_BYTES:  # before reading 256 MiB of JSON
+                raise BeamFormatError(f"{path}: its 'meta' member is {info.file_size:,} bytes; a beam's metadata is "
+                                      f"a few kB (at most {MAX_META_BYTES:,})")
+            if info.file_size > BOMB_MIN_BYTES and info.file_size > BOMB_RATIO * max(1, info.compress_size):
+                raise BeamFormatError(
+                    f"{path}: member '{info.filename}' decompresses to {info.file_size:,} bytes from "
+                    f"{info.compress_size:,} ({info.file_size / max(1, info.compress_size):,.0f}x); a beam's gains "
+                    f"compress a few times at most, so this is refused unread")
             if not info.filename.endswith(".npy"):
+                if name in ("freqs_mhz", "theta_deg", "phi_deg", "gain"):  # np.load would not find it under this name
+                    raise BeamFormatError(f"{path}: member '{info.filename}' is not a .npy array; not a beam file")
                 continue
             with zf.open(info) as fh:
                 version = npy.read_magic(fh)

@@ -29,9 +29,13 @@ def _metres_in_step() -> None:
     Interface_Static.SetCVal_s("write.step.unit", "M")
 
 
+MAX_THICKNESS_M = 0.1  # a mesh or sheet plate is millimetres thick; 1e9 m wrote a STEP
+
+
 def _check_thickness(thickness: float) -> None:
-    if not (np.isfinite(thickness) and thickness > 0):
-        raise UserInputError(f"plate thickness must be a positive number of metres, got {thickness}")
+    if not (np.isfinite(thickness) and 0 < thickness <= MAX_THICKNESS_M):
+        raise UserInputError(f"plate thickness must be a positive number of metres up to {MAX_THICKNESS_M:g}, got "
+                             f"{thickness:g}")
 
 
 def plate_solid(shape: GroundPlane, thickness: float = DEFAULT_THICKNESS_M):

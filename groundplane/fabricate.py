@@ -34,6 +34,11 @@ TOL = 1e-6  # m: geometric tolerance of the cuts
 MIN_OFFCUT_AREA = 0.01  # m^2: smaller scraps are not kept for reuse
 
 
+MIN_SHEET_M, MAX_SHEET_M = 0.5, 20.0  # a stock sheet a crew can carry; 1e9 m sheets planned a 2.2e18 kg purchase
+MAX_GRID_M, MAX_WIRE_M = 0.5, 0.02
+MAX_SHEETS = 20_000  # the 30 m plane takes ~70 stock sheets
+
+
 @dataclass(frozen=True)
 class MeshSheet:
     """A stock sheet of welded wire mesh, laid with ``overlap`` metres shared between
@@ -63,6 +68,12 @@ class MeshSheet:
         if self.wire_diameter >= self.grid:
             raise UserInputError(f"the wire diameter ({self.wire_diameter:g} m) must be smaller than the grid "
                                  f"({self.grid:g} m)")
+        if not (MIN_SHEET_M <= min(self.width, self.length) and max(self.width, self.length) <= MAX_SHEET_M):
+            raise UserInputError(f"--sheet {self.width:g} {self.length:g}: a stock mesh sheet is {MIN_SHEET_M:g}-"
+                                 f"{MAX_SHEET_M:g} m a side (2.4 x 6.0 m is common)")
+        if self.grid > MAX_GRID_M or self.wire_diameter > MAX_WIRE_M:
+            raise UserInputError(f"--grid {self.grid:g} / --wire-diameter {self.wire_diameter:g}: a welded mesh's pitch "
+                                 f"is at most {MAX_GRID_M:g} m and its wire at most {MAX_WIRE_M * 1000:g} mm")
 
     @property
     def width(self) -> float:
@@ -281,7 +292,15 @@ def _place_all(parts: list[Polygon], offcuts: list[tuple[int, Polygon]]):
 
 def plan_sheets(plane: GroundPlane, sheet: MeshSheet) -> SheetPlan:
     """The plan with the fewest bought sheets (then the least waste) of four layouts: long
-    side along x or y, grid from the outline's corner or centred on it."""
+    side along x or y, grid from the outline's corner or centred on it. Refused before any work
+    when the plane would need more than MAX_SHEETS sheets (0.15 m sheets on a 30 m square ran
+    for minutes)."""
+    x0, y0, x1, y1 = plane.outline().bounds
+    step = (sheet.width - sheet.overlap) * (sheet.length - sheet.overlap)
+    cells = (x1 - x0 + sheet.length) * (y1 - y0 + sheet.length) / step
+    if cells > MAX_SHEETS:
+        raise UserInputError(f"{plane.describe()}: about {cells:,.0f} sheets of {sheet.width:g} x {sheet.length:g} m "
+                             f"would cover it; a plan holds at most {MAX_SHEETS:,} (use larger sheets)")
     plans = [_layout(plane, sheet, along_y, centred) for along_y in (False, True) for centred in (False, True)]
     return min(plans, key=lambda p: (p.bought, p.waste_percent, p.seam_length))
 

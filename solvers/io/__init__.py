@@ -70,13 +70,33 @@ def head_lines(head: bytes, n: int = 20) -> list[str]:
     return [line.strip() for line in head.decode("latin-1").splitlines() if line.strip()][:n]
 
 
+MAX_BEAM_FILE_BYTES = 4 * 2**30  # the largest real export here is 7.5 MB; a 1-degree 61-frequency npz is 16 MB
+
+
+def check_beam_file(path: Path) -> None:
+    """Refuse, before reading a byte, what cannot be a beam file: nothing there, a folder, a
+    device or pipe (``/dev/zero`` read as a beam grew to 7.6 GB), or a file larger than any beam."""
+    import stat
+
+    try:
+        st = path.stat()
+    except FileNotFoundError:
+        raise UserInputError(f"{path}: no such beam file") from None
+    except OSError as exc:
+        raise UserInputError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise UserInputError(f"{path}: is a directory, not a beam file")
+    if not stat.S_ISREG(st.st_mode):
+        raise UserInputError(f"{path}: not a regular file (a device or a pipe); a beam is a file on disk")
+    if st.st_size > MAX_BEAM_FILE_BYTES:
+        raise BeamFormatError(f"{path}: {st.st_size / 2**30:.1f} GiB; no beam file is larger than "
+                              f"{MAX_BEAM_FILE_BYTES / 2**30:g} GiB")
+
+
 def detect_format(path: str | Path) -> str:
     """A beam file's format from its first bytes (not its name)."""
     path = Path(path)
-    if not path.exists():
-        raise UserInputError(f"{path}: no such beam file")
-    if path.is_dir():
-        raise UserInputError(f"{path}: is a directory, not a beam file")
+    check_beam_file(path)
     with open(path, "rb") as fh:
         head = fh.read(SNIFF_BYTES)
     if not head:
@@ -101,8 +121,7 @@ def load_beam(paths: str | os.PathLike | Sequence[str | os.PathLike], fmt: str =
     if fmt != "auto" and fmt not in FORMATS:
         raise UserInputError(f"unknown beam format '{fmt}'; choose one of {', '.join(format_names())}")
     for p in files:
-        if not p.exists():
-            raise UserInputError(f"{p}: no such beam file")
+        check_beam_file(p)
     kinds = [detect_format(p) if fmt == "auto" else fmt for p in files]
     if len(set(kinds)) > 1:
         raise BeamFormatError(f"the files mix formats: {dict(zip(map(str, files), kinds))}")

@@ -67,6 +67,7 @@ class NecSettings(PlateModel):
     far_field_step: int = option(3, "far-field step (deg) NEC computes, interpolated (bicubic) to 1 deg; 1: no interpolation")
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         if not (isinstance(self.far_field_step, int) and 1 <= self.far_field_step <= 10 and 90 % self.far_field_step == 0):
             raise SettingsError(f"far_field_step must be a whole number of degrees dividing 90 (1, 2, 3, 5, 6, 9, 10), "
                                 f"got {self.far_field_step!r}")

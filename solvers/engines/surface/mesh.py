@@ -36,6 +36,7 @@ class SurfaceSettings(PlateModel):
                          "'dense' (the full matrix and its LU: the reference)", choices=("fast", "dense"))
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         if not (self.spacing > 0 and math.isfinite(self.spacing)):
             raise SettingsError(f"mesh spacing must be a positive number of metres, got {self.spacing}")
         if not (self.plate_height > 0 and math.isfinite(self.plate_height)):

@@ -8,6 +8,7 @@ efficiency over soil (what the soil absorbs is lost)."""
 from __future__ import annotations
 
 import json
+import math
 from importlib import metadata
 from typing import ClassVar
 
@@ -28,6 +29,14 @@ MODEL_VERSION = 4  # bump when the model changes: the cache key includes it
 #    had wiped out self terms on some meshes); close pairs' outer rule on 16 sub-triangles
 # 4: soil (Sommerfeld half-space); PEC and free-space answers unchanged
 FAR_FIELD_STEP = 3  # deg; interpolated bicubically to 1 deg (as NEC's far field)
+MAX_UNKNOWNS = 500_000  # 25x the largest plate of Table 3 at the default mesh
+FAST_BYTES_PER_UNKNOWN = 110_000  # a fast solve's worker: square-30 at 0.5 m estimated 2.14 GiB for 20364 unknowns
+BASE_BYTES = 400 * 2**20
+
+
+def DENSE_BYTES(n: int) -> int:  # noqa: N802 - a formula, named as the dense solve's memory
+    """A dense solve's matrices (Z and the fill's products, complex doubles) for ``n`` unknowns."""
+    return 16 * (2 * n * n + 2 * n * n)
 
 
 def check_memory(n_unknowns: int, n_triangles: int, processes: int, label: str, reduced: bool = False) -> None:
@@ -155,7 +164,30 @@ class SurfaceSolver(FrequencySolver):
         soils = [_soil(d) for d in designs]
         return Plan(solve_soils, (plan.payload, soils), plan.n_phi, plan.meta, f"{plan.label} on {len(soils)} soils")
 
+    def estimated_unknowns(self, design: Design) -> int:
+        """Unknowns of the design's model before it is meshed: the plate's area over the mesh's
+        triangle (Triangle's quality meshes run 1.64x the equilateral count: sawtooth-20-16 and
+        square-30 at 0.5 m) x 1.5 edges a triangle, and the blade's grid."""
+        nx, ny = self.settings.blade_cells
+        plate = design.plane.metal_area if design.plane is not None else 0.0
+        triangles = 1.64 * plate / (math.sqrt(3) / 4 * self.settings.spacing ** 2) + 4 * nx * ny
+        return int(1.5 * triangles)
+
+    def precheck(self, design: Design) -> None:
+        """Refuse, before meshing (which alone took minutes and gigabytes at 1-5 cm), a model
+        whose estimated size does not fit in memory on this solve's processes."""
+        n = self.estimated_unknowns(design)
+        per_unknown = DENSE_BYTES(n) if self.settings.method == "dense" else FAST_BYTES_PER_UNKNOWN * n
+        need = (per_unknown + BASE_BYTES) * self.processes
+        have = available_memory_bytes()
+        if n > MAX_UNKNOWNS or (have is not None and need > 0.8 * have):
+            raise SettingsError(f"{design.label()}: about {n:,} unknowns at {self.settings.spacing:g} m would need about "
+                                f"{need / 2**30:.1f} GiB on {self.processes} process(es)"
+                                + (f" ({have / 2**30:.1f} GiB available)" if have is not None else "")
+                                + f"; at most {MAX_UNKNOWNS:,} unknowns are solved. Use a coarser --mesh or fewer --workers.")
+
     def plan(self, design: Design) -> Plan:
+        self.precheck(design)
         try:
             mesh: TriMesh = build_mesh(design, self.settings)
             rwg = rwg_basis(mesh)
