@@ -84,8 +84,13 @@ def export_step(
 
         writer = STEPControl_Writer()
         writer.Transfer(plate.val().wrapped, STEPControl_AsIs)
-        if writer.Write(str(path)) != IFSelect_RetDone:
-            raise OSError(f"{path}: STEP writer failed")
+        if writer.Write(str(path)) != IFSelect_RetDone:  # OCCT says no more than that: look at the folder
+            import errno
+            import shutil
+
+            if shutil.disk_usage(path.parent).free < 16 * 2**20:
+                raise OSError(errno.ENOSPC, "no space left on the device")
+            raise OSError(errno.EIO, "the STEP writer failed (a full or read-only folder?)")
         return path
     assy = cq.Assembly(name="groundplane_antenna")
     assy.add(plate, name="ground_plane", color=cq.Color(0.7, 0.7, 0.7))

@@ -23,6 +23,7 @@ def atomic_path(path: str | os.PathLike, suffix: str = ".tmp") -> Iterator[Path]
         raise UserInputError(f"{path}: is a directory; give a file name to write")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
+        _remove_stale_temps(path, suffix)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=suffix)
     except OSError as exc:
         raise UserInputError(f"{path}: cannot write here ({exc.strerror or exc})") from None
@@ -36,6 +37,30 @@ def atomic_path(path: str | os.PathLike, suffix: str = ".tmp") -> Iterator[Path]
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
+
+
+STALE_TEMP_S = 600.0  # a temp file of ours older than this is a write a kill -9 cut short
+
+
+def _remove_stale_temps(path: Path, suffix: str) -> None:
+    """Remove ``path``'s own temp files (``name.<random><suffix>``) that a killed write left behind,
+    when older than STALE_TEMP_S (a write of the same file by another process now is left alone)."""
+    import time
+
+    now = time.time()
+    for stray in path.parent.glob(f"{glob_escape(path.name)}.*{glob_escape(suffix)}"):
+        try:
+            if stray.is_file() and now - stray.stat().st_mtime > STALE_TEMP_S:
+                stray.unlink()
+        except OSError:
+            pass
+
+
+def glob_escape(text: str) -> str:
+    """``text`` with glob's special characters taken literally."""
+    import glob
+
+    return glob.escape(text)
 
 
 def check_output(path: str | os.PathLike) -> str:

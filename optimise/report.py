@@ -91,7 +91,7 @@ def write_report(rows: list[dict[str, Any]], out_dir: str | Path, title: str = "
         md += [preamble, ""]
     md += [" ".join(notes), ""] if notes else []
     md += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    md += ["| " + " | ".join(c) + " |" for c in cells]
+    md += ["| " + " | ".join(md_cell(x) for x in c) + " |" for c in cells]
     with_members = [r for r in ok if r.get("members")]
     if with_members:
         from .scenarios import member_table
@@ -103,7 +103,8 @@ def write_report(rows: list[dict[str, Any]], out_dir: str | Path, title: str = "
             if r.get("skipped_members"):
                 md += [f"Not applicable to this design: {', '.join(r['skipped_members'])}.", ""]
     if bad:
-        md += ["", "## Not scored", ""] + [f"- **{r['name']}** ({r.get('status')}): {r.get('error', '')}" for r in bad]
+        md += ["", "## Not scored", ""] + [f"- **{md_cell(r['name'])}** ({r.get('status')}): "
+                                            f"{md_cell(str(r.get('error', '')))}" for r in bad]
     if figs:
         md += ["", "## Figures", ""] + [f"![{k}]({p.name})" for k, p in figs.items()]
     _write(paths["md"], "\n".join(md) + "\n")
@@ -181,6 +182,12 @@ def _html(title: str, paragraphs: list[str], header: list[str], cells: list[list
     return (f"<!doctype html><html><head><meta charset='utf-8'><title>{e(title)}</title></head><body>"
             f"<h1>{e(title)}</h1>{paras}<table border=1 cellpadding=4><tr>{head}</tr>{body}</table>{lost}"
             f"{('<h2>Figures</h2>' + imgs) if imgs else ''}</body></html>")
+
+
+def md_cell(text: str) -> str:
+    """Text as one markdown table cell: a '|' escaped, line breaks as spaces (a candidate's name
+    may hold either)."""
+    return " ".join(str(text).split("\n")).replace("\r", " ").replace("|", "\\|")
 
 
 def cell(v: Any, nd: int = 1) -> str:

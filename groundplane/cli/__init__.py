@@ -52,7 +52,17 @@ class _Parser(argparse.ArgumentParser):
     instead of the whole usage block first."""
 
     def error(self, message: str):  # type: ignore[override]
-        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+        self.exit(2, f"{self.prog}: error: {one_line(message)} (see {self.prog} --help)\n")
+
+
+MAX_MESSAGE = 2000  # characters of an error line (a message quoting a 60 MB value stays one readable line)
+
+
+def one_line(text: str) -> str:
+    """An error message as one printable line: control characters (a NUL, a carriage return in a
+    value the user typed) shown escaped, so the line cannot break or hide itself."""
+    text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
+    return text if len(text) <= MAX_MESSAGE else text[:MAX_MESSAGE] + " ..."
 
 
 def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
@@ -89,10 +99,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"groundplane {args.command}: terminated (what was finished is kept)", file=sys.stderr)
         return 143
     except UserInputError as exc:
-        print(f"groundplane {args.command}: error: {exc}", file=sys.stderr)
+        print(f"groundplane {args.command}: error: {one_line(exc)}", file=sys.stderr)
         return 2
     except GroundplaneError as exc:  # a solver that failed: not a bug in this program
-        print(f"groundplane {args.command}: failed: {exc}", file=sys.stderr)
+        print(f"groundplane {args.command}: failed: {one_line(exc)}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print(f"groundplane {args.command}: interrupted", file=sys.stderr)

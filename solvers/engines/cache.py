@@ -40,8 +40,8 @@ class BeamCache:
         return self.root / "beams" / f"{key}.npz"
 
     def get(self, key: str) -> Beam | None:
-        """The finished beam of ``key``, or None: a damaged or foreign entry, or one whose gain no
-        longer matches the checksum written with it, is deleted (and solved again)."""
+        """The finished beam of ``key``, or None: a damaged or foreign entry, or one whose gain does
+        not match the checksum written with it (or has none), is deleted (and solved again)."""
         p = self.path(key)
         if not p.exists():
             return None
@@ -50,10 +50,10 @@ class BeamCache:
         except BeamFormatError:
             beam = None
         said = beam.meta.get("gain_sha256") if beam is not None else None
-        if beam is None or beam.meta.get("cache_key") != key or (said is not None and said != gain_checksum(beam.gain)):
-            if beam is not None and said is not None:
-                warn_once(f"checksum {key}", f"{p}: its gain does not match the checksum written with it; solving "
-                                             "it again")
+        if beam is None or beam.meta.get("cache_key") != key or said != gain_checksum(beam.gain):
+            if beam is not None:  # an entry without its checksum is never adopted, however plausible
+                warn_once(f"checksum {key}", f"{p}: its gain does not match the checksum written with it (or it has "
+                                             "none); solving it again")
             p.unlink(missing_ok=True)
             return None
         return beam

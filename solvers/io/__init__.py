@@ -104,7 +104,7 @@ def detect_format(path: str | Path) -> str:
     for fmt in FORMATS.values():
         if fmt.sniff(head):
             return fmt.name
-    first = (head_lines(head, 1) or [""])[0]
+    first = "".join(c if c.isprintable() else "?" for c in (head_lines(head, 1) or [""])[0])
     raise BeamFormatError(
         f"{path}: unrecognised beam file (first line '{first[:60]}'); pass --format one of {', '.join(FORMATS)}"
     )
