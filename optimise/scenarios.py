@@ -191,8 +191,11 @@ class Member:
         soil, model = base.soil, base.model
         values = dict(self.overrides)
         if "eps_r" in values or "sigma" in values:
+            soil_opts = {o.key: o for o in options(Soil)}
+            given = {k: coerce(soil_opts[k], values.pop(k), f"scenario '{self.name}': ") for k in ("eps_r", "sigma")
+                     if k in values}
             try:
-                soil = Soil(float(values.pop("eps_r", soil.eps_r)), float(values.pop("sigma", soil.sigma)))
+                soil = replace(soil, **given)
             except SettingsError as exc:
                 raise ConfigError(f"scenario '{self.name}': {exc}") from None
         opts = {o.key: o for o in options(type(model))}

@@ -49,7 +49,7 @@ def solve_options_from_mapping(values: Mapping[str, Any], where: str) -> tuple[S
     from .engines.base import SolveSettings
 
     engine = values.get("engine", SolveSettings().engine)
-    if engine not in ENGINES:
+    if not isinstance(engine, str) or engine not in ENGINES:
         raise ConfigError(f"{where}engine '{engine}': choose one of {', '.join(ENGINES)}")
     owners = (Soil, SolveSettings, ENGINES[engine].settings_class)
     known = set().union(*(option_keys(c) for c in owners))
