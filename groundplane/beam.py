@@ -358,8 +358,9 @@ def _check_npz_sizes(path: Path) -> None:
                 raise BeamFormatError(f"{path}: its 'meta' member is {info.file_size:,} bytes; a beam's metadata is "
                                       f"a few kB (at most {MAX_META_BYTES:,})")
             if info.file_size > BOMB_MIN_BYTES and info.file_size > BOMB_RATIO * max(1, info.compress_size):
+                what = f"array '{name}'" if info.filename.endswith(".npy") else f"member '{info.filename}'"
                 raise BeamFormatError(
-                    f"{path}: member '{info.filename}' decompresses to {info.file_size:,} bytes from "
+                    f"{path}: {what} decompresses to {info.file_size:,} bytes from "
                     f"{info.compress_size:,} ({info.file_size / max(1, info.compress_size):,.0f}x); a beam's gains "
                     f"compress a few times at most, so this is refused unread")
             if not info.filename.endswith(".npy"):

@@ -371,7 +371,8 @@ def figure_of_merit(
 ) -> FomResult:
     """The FoM of a beam. With ``correction_beam`` the spectra are first divided by the
     beam-correction factor computed from that beam model (Mozdzen et al. 2019)."""
-    fit_band_mask(beam.freqs_mhz, settings.fit_band_mhz, settings.n_terms)  # before the sky: a beam it cannot fit
+    _hemisphere(beam)  # before the sky: a beam it cannot cover (a FEKO quadrant) ...
+    fit_band_mask(beam.freqs_mhz, settings.fit_band_mhz, settings.n_terms)  # ... or fit
     gwt, gw, lst_hours = sky_products(beam, settings, progress)
     check_products(beam, gwt, gw)
     t_ant = _t_ant_from_products(beam.freqs_mhz, gwt, gw, settings)

@@ -11,7 +11,7 @@ from groundplane.errors import SettingsError
 from groundplane.options import option
 
 MIN_SPACING_M, MAX_SPACING_M = 0.05, 5.0
-MAX_PLATE_HEIGHT_M = 1.0  # the plate lies on the soil; 1 m is the blade's own height
+MAX_PLATE_HEIGHT_M = 5.0  # the plate lies on the soil (5 mm); a few metres is the most any model study raises it
 MAX_BLADE_CELLS = 100
 
 
