@@ -62,29 +62,20 @@ def header(kind: str, command: str, settings: dict[str, Any] | None = None, **ex
     return PREFIX + json.dumps(head, sort_keys=True) + SUFFIX
 
 
-def stamp(path: Path, kind: str, command: str, settings: dict[str, Any] | None = None) -> None:
-    """Put (or complete) the provenance line at the top of the markdown report ``path``."""
+def write_md(path: Path, text: str, kind: str, command: str, settings: dict[str, Any] | None = None,
+             **extra: Any) -> Path:
+    """Write a markdown report atomically, starting with its provenance line (the one it already
+    has, or :func:`header` of ``kind`` and ``command``): the code that writes a report stamps it,
+    for that file only (stamping every new file of a folder had named one command on another's
+    report)."""
     from groundplane.files import atomic_path
 
-    text = path.read_text(encoding="utf-8")
-    old = read(path) or {}
-    if old:
-        text = text.split("\n", 1)[1] if "\n" in text else ""
-    fresh = {k: v for k, v in old.items() if k not in ("report", "command", "code", "models", "written", "settings")}
-    line = header(old.get("report", kind), command, old.get("settings", settings), **fresh)
+    path = Path(path)
+    if not text.startswith(PREFIX):
+        text = header(kind, command, settings, **extra) + "\n" + text
     with atomic_path(path, suffix=".tmp.md") as tmp:
-        tmp.write_text(line + "\n" + text, encoding="utf-8")
-
-
-def stamp_new_reports(folder: Path, since: float, kind: str, command: str,
-                      settings: dict[str, Any] | None = None) -> list[Path]:
-    """Stamp every markdown report under ``folder`` written at or after ``since`` (epoch s)."""
-    out = []
-    for p in sorted(folder.rglob("*.md")):
-        if p.stat().st_mtime >= since - 1 and p.name != "answer.md":  # answers are hand-written
-            stamp(p, kind, command, settings)
-            out.append(p)
-    return out
+        tmp.write_text(text, encoding="utf-8")
+    return path
 
 
 def check(root: Path) -> list[dict[str, str]]:

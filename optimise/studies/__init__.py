@@ -41,17 +41,11 @@ def study(name: str, help: str, uses_settings: bool = False):
 def run_study(name: str, out_dir: str | Path, settings: EvalSettings | None = None, command: str = "",
               **extra) -> None:
     """Run a registered study, writing under ``out_dir``."""
-    import time
-
-    from ..provenance import stamp_new_reports
-
     s = STUDIES[name]
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    start = time.time()
     command = command or f"groundplane study {name} -o {out}"
-    s.run(out, settings, command, **extra)
-    stamp_new_reports(out, start, f"study {name}", command, settings.identity() if settings is not None else None)
+    s.run(out, settings, command, **extra)  # each study stamps the reports it writes (provenance.write_md)
 
 
 for _m in pkgutil.iter_modules(__path__):

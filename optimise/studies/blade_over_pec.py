@@ -25,6 +25,7 @@ from solvers.engines.nec import NecSettings
 from solvers.engines.nec.mesh import NecModel, fold_rotation, pec_reference_model
 from solvers.engines.surface import SurfaceSettings
 
+from ..provenance import write_md
 from . import study
 from ._common import (
     FREQS,
@@ -184,7 +185,7 @@ def blade_over_pec(out: Path, command: str) -> None:
         size = beam.meta.get("n_segments") or f"{beam.meta.get('n_unknowns', '-')} unknowns"
         lines.append(f"| {label} | {size} | {beam.beam_width_3db(75, 0):.1f} | "
                      f"{beam.beam_width_3db(75, 90):.1f} | {fom:.1f} | {worst} |")
-        (out / "blade_over_pec.md").write_text("\n".join(lines) + "\n")
+        write_md(out / "blade_over_pec.md", "\n".join(lines) + "\n", "study blade-over-pec", command)
         return fom
 
     bare = row("12 x 10 blade", solve(pec, NecSettings())[0])
@@ -214,7 +215,7 @@ def blade_over_pec(out: Path, command: str) -> None:
     lines += _reading(bare, foms, published)
     lines += ["", _second_engine(surface)]
     lines += ["", _dimensions(bare, moved)]
-    (out / "blade_over_pec.md").write_text("\n".join(lines) + "\n")
+    write_md(out / "blade_over_pec.md", "\n".join(lines) + "\n", "study blade-over-pec", command)
 
 
 SMALL = 0.05  # a change of at most 5 % in FoM is "barely", and a FoM within 5 % of FEKO's "reaches" it

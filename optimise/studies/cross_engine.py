@@ -19,6 +19,7 @@ from solvers.engines import make_solver
 from solvers.engines.nec import NecSettings
 from solvers.engines.surface import SurfaceSettings
 
+from ..provenance import write_md
 from . import study
 from ._common import FREQS, fom_mk, machine, verdict, write_csv
 
@@ -219,7 +220,7 @@ def _write(out: Path, command: str, rows: list[dict], freqs: np.ndarray, plate: 
         lines += ["", "![zenith gain](cross_engine.png)"]
     else:
         lines += ["", "(in progress: rows are added as their solves finish)"]
-    (out / "cross_engine.md").write_text("\n".join(lines) + "\n")
+    write_md(out / "cross_engine.md", "\n".join(lines) + "\n", "study cross-engine", command)
     (out / "cross_engine.json").write_text(json.dumps(rows, indent=1))
 
 

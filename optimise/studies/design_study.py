@@ -12,6 +12,7 @@ from ..evaluate import (
     Candidate,
     EvalSettings,
 )
+from ..provenance import write_md
 from ..report import write_report
 from ..sweep import run_sweep
 from . import study
@@ -57,8 +58,8 @@ def design_study(settings: EvalSettings, out_dir: str | Path, command: str, prog
     write_csv(out / "design_study.csv",
               [{**t, **({"compare_fom_mk": other[i]["our_fom_mk"]} if other else {})} for i, t in enumerate(table)])
     pec = pec_reference_fom(settings, progress)
-    (out / "design_study.md").write_text(_design_md(table, settings, command, other, compare, pec)
-                                         + _mesh_section(out, settings))
+    write_md(out / "design_study.md", _design_md(table, settings, command, other, compare, pec)
+                                         + _mesh_section(out, settings), "study design-study", command, settings.identity())
     return table
 
 

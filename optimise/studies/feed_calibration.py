@@ -10,6 +10,7 @@ from groundplane.design import Design, InfinitePEC, Soil
 from groundplane.shapes import PRESETS
 from solvers.engines.nec import NecSettings
 
+from ..provenance import write_md
 from . import study
 from ._common import (
     machine,
@@ -40,7 +41,7 @@ def feed_calibration(out: Path, command: str) -> None:
         w = beam.solid_angle_weights()
         mean = float((beam.gain[0] * w).sum() / w.sum())
         lines.append(f"| {cells[0]} x {cells[1]} | {beam.meta['n_segments']} | {mean:.4f} | {10 * np.log10(mean / 2):+.3f} |")
-        (out / "feed_calibration.md").write_text("\n".join(lines) + "\n")
+        write_md(out / "feed_calibration.md", "\n".join(lines) + "\n", "study feed-calibration", command)
     lines += [
         "",
         "## Does the PEC calibration carry over to soil? `square-10`, 0.5 m mesh, zenith gain (dBi)",
@@ -58,7 +59,7 @@ def feed_calibration(out: Path, command: str) -> None:
         lines.append(f"| {f:g} | {cols[0][i]:.3f} | {cols[1][i]:.3f} | {cols[2][i]:.3f} |")
     diff = np.max(np.abs(cols[0] - cols[1]))
     lines += ["", f"Largest difference between the calibrated 12 x 10 and 24 x 18 blades: {diff:.3f} dB."]
-    (out / "feed_calibration.md").write_text("\n".join(lines) + "\n")
+    write_md(out / "feed_calibration.md", "\n".join(lines) + "\n", "study feed-calibration", command)
 
 
 @study("feed-calibration", "NEC-2 feed: mean gain over PEC vs blade mesh; does the PEC calibration carry to soil")

@@ -15,6 +15,7 @@ from groundplane.shapes import PRESETS
 from solvers.engines import make_solver
 from solvers.engines.nec import NecSettings
 
+from ..provenance import write_md
 from . import study
 from ._common import engine_settings
 
@@ -100,7 +101,7 @@ def feko_40mhz(out: Path, command: str, feko_dir: Path | None = None) -> None:
                      + f" | {diffs[label][0]:.2f} | {diffs[label][1]:.2f} |")
     lines += ["", "## Reading", "", *_reading(rows, diffs)]
     lines += ["", "![E- and H-plane cuts at 40 MHz](feko_40mhz.png)"]
-    (out / "feko_40mhz.md").write_text("\n".join(lines) + "\n")
+    write_md(out / "feko_40mhz.md", "\n".join(lines) + "\n", "study feko-40mhz", command)
     _plot(rows, out / "feko_40mhz.png")
 
 

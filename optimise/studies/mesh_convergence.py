@@ -10,7 +10,7 @@ from pathlib import Path
 from groundplane.shapes import preset
 
 from ..evaluate import Candidate, EvalSettings
-from ..provenance import header
+from ..provenance import header, write_md
 from ..sweep import run_sweep
 from . import study
 from ._common import write_csv
@@ -102,7 +102,7 @@ def write(out: Path, settings: EvalSettings, command: str, rows: list[dict]) -> 
         lines.append(f"| {p} | " + " | ".join(cells) + f" | {unknowns} | {cpu} |")
     lines += ["", f"Rule: the default mesh is the coarsest at which the next finer one moves each preset's FoM "
               f"by <= {TOLERANCE_PCT:g} %.", "", verdict, ""]
-    (out / "mesh_convergence.md").write_text("\n".join(lines) + "\n")
+    write_md(out / "mesh_convergence.md", "\n".join(lines) + "\n", "study mesh-convergence", command)
 
 
 @study("mesh-convergence", "FoM vs plate mesh on square-10, sawtooth-20-16 and square-30; the mesh the "

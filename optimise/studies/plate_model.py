@@ -20,6 +20,7 @@ from groundplane.fom import FomSettings, figure_of_merit, narrow_band_rms
 from groundplane.shapes import PRESETS
 from solvers.engines.nec import NecSettings
 
+from ..provenance import write_md
 from . import study
 from ._common import efficiency, fom_mk, machine, solve, verdict, write_csv
 
@@ -58,9 +59,9 @@ def plate_model(out: Path, command: str, grid=GRID, shape: str = "square-10") ->
         lines.append(f"| {sp:g} | {h:g} | {r:g} | {row['segments']} | {row['fom_mk']:.1f} | "
                      f"{row['smoothed12_mk']:.1f} | {row['narrow_rms']:.1e} | {row['efficiency_75']:.3f} | "
                      f"{row['fom_lst_min_mk']:.0f}-{row['fom_lst_max_mk']:.0f} | {secs:.0f} |")
-        (out / "plate_model.md").write_text("\n".join(lines) + "\n")
+        write_md(out / "plate_model.md", "\n".join(lines) + "\n", "study plate-model", command)
     lines += _findings(rows)
-    (out / "plate_model.md").write_text("\n".join(lines) + "\n")
+    write_md(out / "plate_model.md", "\n".join(lines) + "\n", "study plate-model", command)
     write_csv(out / "plate_model.csv", rows)
 
 

@@ -16,7 +16,7 @@ from groundplane.fom import figure_of_merit
 from groundplane.sky import SKY_MODELS
 
 from ..evaluate import Candidate, EvalSettings, candidate_beam
-from ..provenance import header
+from ..provenance import header, write_md
 from . import study
 from ._common import verdict, write_csv
 from .design_study import DESIGN_STUDY, conclusions
@@ -50,7 +50,7 @@ def sky_models(out: Path, settings: EvalSettings, command: str, skies: tuple[str
                              .lst_averaged_fom_mk, 1)
         rows.append(row)
         write_csv(out / "sky_models.csv", rows)
-    (out / "sky_models.md").write_text(_markdown(rows, skies, settings, command))
+    write_md(out / "sky_models.md", _markdown(rows, skies, settings, command), "study sky-models", command)
     return rows
 
 

@@ -36,6 +36,7 @@ from solvers.engines import make_solver
 from solvers.engines.nec import NecSettings
 from solvers.engines.surface import SurfaceSettings
 
+from ..provenance import write_md
 from . import study
 from ._common import efficiency, engine_settings, machine, verdict, write_csv
 
@@ -200,7 +201,7 @@ def _write(out: Path, command: str, table: list[dict], finished: bool, missing: 
         lines += ["", "## Reading", "", *_reading(table), "", "![zenith gain and FoM per LST](soil_surface.png)"]
     else:
         lines += ["", "(in progress: rows are added as their solves finish)"]
-    (out / "soil_surface.md").write_text("\n".join(lines) + "\n")
+    write_md(out / "soil_surface.md", "\n".join(lines) + "\n", "study soil-surface", command)
 
 
 PAPER_PEAK_LST_H = 18.0  # the paper's FoM(LST) figures peak near 18 h (the Galactic centre overhead)

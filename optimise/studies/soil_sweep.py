@@ -14,6 +14,7 @@ from groundplane.plots import pyplot, save_figure
 from groundplane.shapes import preset
 
 from ..evaluate import Candidate, EvalSettings
+from ..provenance import write_md
 from ..sweep import run_sweep
 from . import study
 from ._common import write_csv
@@ -70,7 +71,7 @@ def soil_sweep(settings: EvalSettings, out_dir: str | Path, command: str, progre
     md += [f"| {r['plane']} | {r['varied']} | {r['eps_r']:g} | {r['sigma']:g} | {_mk(r['fom_mk'])} | "
            f"{_mk(r['fom_binned_mk'])} |" for r in rows]
     md += ["", "## Reading", "", *_reading(rows), "", "![soil sweep](soil_sweep.png)"]
-    (out / "soil_sweep.md").write_text("\n".join(md) + "\n")
+    write_md(out / "soil_sweep.md", "\n".join(md) + "\n", "study soil-sweep", command, settings.identity())
     return rows
 
 

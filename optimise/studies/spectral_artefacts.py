@@ -11,6 +11,7 @@ from groundplane.plots import pyplot, save_figure
 from groundplane.shapes import PRESETS
 from solvers.engines.nec import NecSettings, build_model
 
+from ..provenance import write_md
 from . import study
 from ._common import (
     cached,
@@ -72,12 +73,12 @@ def spectral_artefacts(out: Path, command: str) -> None:
         fom = [fom_mk(beam), fom_mk(beam.frequency_smoothed(12)), fom_mk(beam.frequency_smoothed(8))]
         rows.append((label, sp, ref, *fom, narrow_rms(beam)))
         lines.append(f"| {label} | {sp:g} | {ref} | {fom[0]:.1f} | {fom[1]:.1f} | {fom[2]:.1f} | {rows[-1][-1]:.1e} |")
-    (out / "spectral_artefacts.md").write_text("\n".join(lines) + "\n")
+    write_md(out / "spectral_artefacts.md", "\n".join(lines) + "\n", "study spectral-artefacts", command)
 
     fine = _fine_sweeps()
     lines += _fine_sweep_md(fine)
-    (out / "spectral_artefacts.md").write_text("\n".join(lines) + "\n")
-    lines += _plate_height_md(out, lines)
+    write_md(out / "spectral_artefacts.md", "\n".join(lines) + "\n", "study spectral-artefacts", command)
+    lines += _plate_height_md(out, lines, command)
 
     plt = pyplot()
 
@@ -100,7 +101,7 @@ def spectral_artefacts(out: Path, command: str) -> None:
     save_figure(fig, out / "spectral_artefacts.png", dpi=120)
     plt.close(fig)
     lines += ["", "![spectral artefacts](spectral_artefacts.png)"]
-    (out / "spectral_artefacts.md").write_text("\n".join(lines) + "\n")
+    write_md(out / "spectral_artefacts.md", "\n".join(lines) + "\n", "study spectral-artefacts", command)
 
 
 @study("spectral-artefacts", "narrow-band structure in NEC beams: FoM before/after smoothing, 0.25 MHz sweeps, plate height")
@@ -134,7 +135,7 @@ def _fine_sweep_md(fine: dict[str, tuple[np.ndarray, np.ndarray]]) -> list[str]:
     return lines
 
 
-def _plate_height_md(out: Path, before: list[str]) -> list[str]:
+def _plate_height_md(out: Path, before: list[str], command: str) -> list[str]:
     """Part C: plate height and wire radius (the markdown is rewritten after each solve)."""
     lines = ["", "## C. Plate height and wire radius: `square-10`, 1 m mesh, 61 frequencies", "",
              "| plate height (m) | wire radius (m) | segments | FoM (mK) | smoothed 12 (mK) | narrow rms |",
@@ -144,5 +145,5 @@ def _plate_height_md(out: Path, before: list[str]) -> list[str]:
         beam, _ = solve(Design(PRESETS["square-10"], Soil()), mesh)
         lines.append(f"| {h:g} | {r:g} | {beam.meta['n_segments']} | {fom_mk(beam):.1f} | "
                      f"{fom_mk(beam.frequency_smoothed(12)):.1f} | {narrow_rms(beam):.1e} |")
-        (out / "spectral_artefacts.md").write_text("\n".join(before + lines) + "\n")
+        write_md(out / "spectral_artefacts.md", "\n".join(before + lines) + "\n", "study spectral-artefacts", command)
     return lines

@@ -16,7 +16,7 @@ from groundplane.errors import SolveError
 from groundplane.shapes import GroundPlane, from_file, preset, to_dict
 
 from ..evaluate import Candidate, EvalSettings, evaluate
-from ..provenance import header
+from ..provenance import header, write_md
 from ..scenarios import (
     CORNER_ERRORS_M,
     OFFSET_M,
@@ -112,7 +112,7 @@ def tolerance(out: Path, settings: EvalSettings, command: str, name: str = "exte
                      "max_ground_loss": row.get("max_ground_loss"),
                      "unknowns": row.get("n_unknowns"), "solver_cpu_s": row.get("solver_cpu_s")})
         write_csv(out / "tolerance.csv", rows)  # after each solve: an interrupted study keeps its rows
-    (out / "tolerance.md").write_text(markdown(rows, name, settings, command))
+    write_md(out / "tolerance.md", markdown(rows, name, settings, command), "study tolerance", command, settings.identity())
     return rows
 
 

@@ -10,6 +10,7 @@ from groundplane.design import Design, InfinitePEC, Soil
 from groundplane.shapes import PRESETS
 from solvers.engines.nec import NecSettings
 
+from ..provenance import write_md
 from . import study
 from ._common import (
     fom_and_binned_mk,
@@ -42,7 +43,7 @@ def validation(out: Path, command: str, mesh: NecSettings = NecSettings()) -> No
                   "(`--lst-bin 2`; `results/soil_surface.md`). Over soil this wire grid is not the model to use: "
                   "it leaks into the soil and does not reproduce FEKO's beam (`results/feko_40mhz.md`); the "
                   "surface engine's sheet does (`results/soil_surface.md`, `results/design_study.md`)."]
-        (out / "validation.md").write_text("\n".join(lines) + "\n")
+        write_md(out / "validation.md", "\n".join(lines) + "\n", "study validation", command)
 
     beam, secs = solve(Design(None, InfinitePEC()), mesh)
     items["infinite PEC"] = {"rows": [
