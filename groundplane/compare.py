@@ -46,7 +46,10 @@ def _take(beam: Beam, freqs: np.ndarray, theta: np.ndarray, phi: np.ndarray) -> 
     pick = [np.flatnonzero(np.isin(np.round(have, GRID_DECIMALS), want))
             for have, want in ((beam.freqs_mhz, freqs), (beam.theta_deg, theta), (beam.phi_deg, phi))]
     gain = beam.gain[np.ix_(*pick)]
-    return Beam(beam.freqs_mhz[pick[0]], beam.theta_deg[pick[1]], beam.phi_deg[pick[2]], gain, beam.meta)
+    n = beam.freqs_mhz.size  # per-frequency meta (impedance, timings) follows the frequencies kept
+    meta = {k: [v[i] for i in pick[0]] if isinstance(v, list) and len(v) == n and n > 1 else v
+            for k, v in beam.meta.items()}
+    return Beam(beam.freqs_mhz[pick[0]], beam.theta_deg[pick[1]], beam.phi_deg[pick[2]], gain, meta)
 
 
 def _describe(beam: Beam, label: str) -> str:
@@ -214,6 +217,15 @@ class Comparison:
                          f"{b.fom.lst_averaged_fom_mk / ref:.4f} | {b.loss_cell()} | {_span(b.efficiency, 3)} | "
                          f"{_span(b.width_e_deg, 1)} | {_span(b.width_h_deg, 1)} |")
         lines += [f"\n{b.label}: no ground loss: {b.ground_loss_note}" for b in self.beams if b.ground_loss_note]
+        from .s11 import db, input_impedance, reflection
+
+        s11 = [input_impedance(b) for b in self.common]
+        if self.common and s11[0] is not None:
+            for b, z in zip(self.beams[1:], s11[1:]):
+                if z is not None:
+                    d = np.abs(db(reflection(z)) - db(reflection(s11[0])))
+                    lines += ["", f"|S11| (50 ohm) of {b.label} against {self.beams[0].label}: differs by "
+                              f"{d.mean():.2f} dB on average, at most {d.max():.2f} dB (at {f[int(np.argmax(d))]:g} MHz)."]
         for p in self.pairs:
             k = int(np.argmax(p.rms_db))
             lines += ["", f"{p.b} - {p.a}: rms over the sky {p.rms_db.min():.3f}-{p.rms_db.max():.3f} dB "

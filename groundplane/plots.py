@@ -267,3 +267,21 @@ def comparison_figure(comparison, path: str | Path) -> Path:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     return finish_figure(fig, path)
+
+
+def s11_figure(rows: Sequence, z0: float, path: str | Path) -> Path:
+    """|S11| (dB) and the input impedance (R, X) against frequency, one line per beam:
+    ``rows`` of (label, frequencies, impedance, S11)."""
+    plt = pyplot()
+    path = check_figure_path(path)
+    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4))
+    for i, (label, f, z, s) in enumerate(rows):
+        a.plot(f, 20 * np.log10(np.maximum(np.abs(s), 1e-300)), color=f"C{i}", label=label)
+        b.plot(f, z.real, color=f"C{i}", label=f"{label}: R")
+        b.plot(f, z.imag, "--", color=f"C{i}", label=f"{label}: X")
+    a.set(xlabel="frequency (MHz)", ylabel=f"|S11| (dB, {z0:g} ohm)", title="reflection coefficient")
+    b.set(xlabel="frequency (MHz)", ylabel="ohm", title="input impedance")
+    for ax in (a, b):
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    return finish_figure(fig, path)

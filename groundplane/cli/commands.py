@@ -78,6 +78,13 @@ def _run_fom(args: argparse.Namespace) -> int:
           + (f", spectra averaged in {settings.lst_bin_hours:g} h LST bins" if settings.lst_bin_hours else ""))
     if args.metrics:
         print("  " + loss_line(beam, loss, note, settings.fit_band_mhz))
+        from ..s11 import db, input_impedance, reflection
+
+        z = input_impedance(beam)
+        if z is not None:
+            s = db(reflection(z))
+            print(f"  S11 (50 ohm): {s.min():.2f} to {s.max():.2f} dB over {beam.freqs_mhz.min():g}-"
+                  f"{beam.freqs_mhz.max():g} MHz (groundplane s11 for the table and the Touchstone file)")
     for k, v in (report or {}).get("gain_poly3_residuals", {}).items():
         if isinstance(v, dict):
             print(f"  3-term poly residual p-p of G at {k}: {v['peak_to_peak']:.4f}")
@@ -145,6 +152,66 @@ def _run_loss(args: argparse.Namespace) -> int:
                 print(f"| {f:g} | " + " | ".join(cells) + " |")
     if args.output:
         print(f"wrote {args.output}{note_out}", file=sys.stderr)
+    return 0
+
+
+@command("s11", "the antenna's input impedance and reflection coefficient per frequency from solved beam(s); "
+         "-o writes a Touchstone one-port file (.s1p)")
+def _setup_s11(p: argparse.ArgumentParser):
+    p.add_argument("paths", nargs="+", metavar="BEAM", help="beam file(s) carrying the input impedance (our engines' "
+                   "beams, the EDGES FEKO table)")
+    p.add_argument("--format", default="auto", choices=_format_choices(), help="beam file format (default: detect)")
+    p.add_argument("--z0", type=float, default=50.0, help="reference impedance (ohm, default 50)")
+    p.add_argument("-o", "--output", metavar="FILE.s1p", help="write the (one) beam's S11 as Touchstone v1")
+    p.add_argument("--plot", metavar="FILE.png", help="|S11| (dB) and the impedance against frequency")
+    p.add_argument("--json", action="store_true", help="print a JSON object")
+    return _run_s11
+
+
+def _run_s11(args: argparse.Namespace) -> int:
+    from ..files import check_output
+    from ..s11 import db, input_impedance, reflection, write_touchstone
+    from . import invocation
+
+    if args.output and len(args.paths) != 1:
+        raise CLIError(f"-o writes one beam's S11; got {len(args.paths)} beams")
+    note = check_output(args.output) if args.output else ""
+    if args.plot:
+        from ..plots import check_figure_path
+
+        check_figure_path(args.plot)
+    reflection(np.array([1.0]), args.z0)  # a bad --z0 refused before any reading
+    beams = _beams_of(args.paths, args.format)
+    labels = _unique_labels(args.paths)
+    found = [(lab, b, input_impedance(b)) for lab, b in zip(labels, beams)]
+    missing = [lab for lab, _, z in found if z is None]
+    if missing:
+        raise CLIError(f"{', '.join(missing)}: no input impedance in the beam (solve it with this version's engines, "
+                       "or export one that records it)")
+    rows = [(lab, b, z, reflection(z, args.z0)) for lab, b, z in found]
+    if args.output:
+        lab, b, z, s = rows[0]
+        write_touchstone(args.output, b.freqs_mhz, s, args.z0,
+                         [f"S11 of {b.meta.get('source', lab)}", f"written by: {invocation()}"])
+    if args.plot:
+        from ..plots import s11_figure
+
+        s11_figure([(lab, b.freqs_mhz, z, s) for lab, b, z, s in rows], args.z0, args.plot)
+    if args.json:
+        print(json.dumps([{"beam": lab, "freqs_mhz": b.freqs_mhz.tolist(), "z0_ohm": args.z0,
+                           "impedance_re": z.real.tolist(), "impedance_im": z.imag.tolist(),
+                           "s11_re": s.real.tolist(), "s11_im": s.imag.tolist(), "s11_db": db(s).tolist()}
+                          for lab, b, z, s in rows]))
+    else:
+        for lab, b, z, s in rows:
+            print(f"{lab}: Z0 = {args.z0:g} ohm")
+            print("| MHz | R (ohm) | X (ohm) | S11 (dB) | S11 phase (deg) |")
+            print("|---|---|---|---|---|")
+            for f, zi, si in zip(b.freqs_mhz, z, s):
+                print(f"| {f:g} | {zi.real:.3f} | {zi.imag:.3f} | {db(np.array([si]))[0]:.3f} | "
+                      f"{np.degrees(np.angle(si)):.2f} |")
+    if args.output:
+        print(f"wrote {args.output}{note}", file=sys.stderr)
     return 0
 
 

@@ -167,6 +167,7 @@ def read_ffe_set(paths: list[str | Path], align_excitation_axis: bool = True) ->
 
 
 _EDGES_HEADER = re.compile(r"^#\s*FREQUENCY\s+([0-9.eE+-]+)\s*MHz", re.IGNORECASE)
+_EDGES_S11 = re.compile(r"s11\s+(-?[0-9.eE+-]+)\s*dB\s+(-?[0-9.eE+-]+)\s+(-?[0-9.eE+-]+)", re.IGNORECASE)
 
 
 def read_edges_table(path: str | Path, n_azimuth: int = 360) -> Beam:
@@ -180,6 +181,7 @@ def read_edges_table(path: str | Path, n_azimuth: int = 360) -> Beam:
     rows: list[list[float]] = []
     f_cur: float | None = None
     start = 0
+    impedance: dict[float, complex | None] = {}
 
     def close(lineno: int) -> None:
         if f_cur is None:
@@ -202,6 +204,8 @@ def read_edges_table(path: str | Path, n_azimuth: int = 360) -> Beam:
             if m:
                 close(lineno)
                 f_cur, rows, start = check_frequency(float(m.group(1)), where(path, lineno)), [], lineno
+                z = _EDGES_S11.search(line)  # "s11 -1.463 dB 6.136 -33.741": |S11| (50 ohm) and R, X of the input
+                impedance[f_cur] = complex(float(z.group(2)), float(z.group(3))) if z else None
                 continue
             if line.startswith("#"):
                 cols = line.lstrip("#").split()
@@ -238,8 +242,11 @@ def read_edges_table(path: str | Path, n_azimuth: int = 360) -> Beam:
     if np.unique(freqs).size != len(freqs):
         raise BeamFormatError(f"{path}: a frequency block is repeated")
     # The EDGES table's azimuth is the antenna-frame angle from the excitation axis.
-    return Beam(np.asarray(freqs)[order], theta, az, gain[order],
-                {"source": str(path), "format": "edges-table", "solver": "FEKO"})
+    meta = {"source": str(path), "format": "edges-table", "solver": "FEKO"}
+    zs = [impedance.get(freqs[i]) for i in order]
+    if zs and all(z is not None for z in zs):  # the header's input impedance, at every frequency
+        meta.update(input_impedance_re=[z.real for z in zs], input_impedance_im=[z.imag for z in zs])
+    return Beam(np.asarray(freqs)[order], theta, az, gain[order], meta)
 
 
 def _sniff_ffe(head: bytes) -> bool:

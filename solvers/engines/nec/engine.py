@@ -116,16 +116,25 @@ def radiation_pattern(model: NecModel, freq_mhz: float, n_phi: int, step: int = 
 
     NEC computes the far field every ``step`` degrees (the far-field sum costs as much as
     the LU at 1 degree); the grid is then interpolated to 1 degree by :func:`to_one_degree`."""
+    return pattern_and_impedance(model, freq_mhz, n_phi, step)[0]
+
+
+def pattern_and_impedance(model: NecModel, freq_mhz: float, n_phi: int, step: int = 1) -> tuple[np.ndarray, complex]:
+    """:func:`radiation_pattern` and the antenna's input impedance (ohm) from the same solve: the
+    sum over the feed's sources (the gap split in series at x = 0, halves under GR) of V / I."""
     n_th = 90 // step + 1
     n_ph = 90 // step + 1 if n_phi == 91 else 360 // step
     c = context(model, freq_mhz)
     c.rp_card(0, n_th, n_ph, 0, 0, 0, 0, 0.0, 0.0, float(step), float(step), 0, 0)
+    ip = c.get_input_parameters(0)
+    volts, amps = np.asarray(ip.get_voltage(), complex), np.asarray(ip.get_current(), complex)
+    z_in = complex(np.sum(volts / amps)) if amps.size and np.all(np.abs(amps) > 0) else complex("nan")
     db = np.asarray(c.get_radiation_pattern(0).get_gain(), dtype=float)
     if db.shape != (n_th, n_ph) or not np.all(np.isfinite(db)):
         raise SolveError(f"NEC returned a pattern of shape {db.shape} with non-finite values at {freq_mhz} MHz")
     g = 10.0 ** (db / 10.0)
     g[db <= -990] = 0.0  # NEC's "no field" marker (theta = 90 over ground)
-    return g if step == 1 else to_one_degree(g, step, quadrant=n_phi == 91)
+    return (g if step == 1 else to_one_degree(g, step, quadrant=n_phi == 91)), z_in
 
 
 def calibration_factor(ref_model: NecModel, freq: float, step: int, store: str | None = None) -> float:
@@ -162,8 +171,9 @@ class NecJob:
 
 
 def solve_frequency(job: NecJob, freq: float) -> tuple[np.ndarray, dict[str, float]]:
-    """Worker job: the calibrated pattern at one frequency and its calibration factor."""
-    g = radiation_pattern(job.model, freq, job.n_phi, job.step)
+    """Worker job: the calibrated pattern at one frequency, its calibration factor and the
+    input impedance."""
+    g, z_in = pattern_and_impedance(job.model, freq, job.n_phi, job.step)
     kappa = 1.0
     if job.calibration != "none":
         if job.calibration == "self":
@@ -173,7 +183,7 @@ def solve_frequency(job: NecJob, freq: float) -> tuple[np.ndarray, dict[str, flo
         if not (0.3 < kappa < 3.0):
             raise SolveError(f"gain calibration factor {kappa:.3f} at {freq} MHz is implausible")
         g = g / kappa
-    return g, {"gain_calibration_kappa": kappa}
+    return g, {"gain_calibration_kappa": kappa, "input_impedance_re": z_in.real, "input_impedance_im": z_in.imag}
 
 
 def solve_band(job: NecJob, freqs) -> np.ndarray:
