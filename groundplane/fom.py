@@ -254,7 +254,7 @@ def antenna_temperature(
         gwt, gw, _ = beam_sky_products(beam, sky or sky_for(beam, settings))
     else:
         gwt, gw, _ = model_sky_products(beam, settings)
-    return _t_ant_from_products(beam.freqs_mhz, gwt, gw, settings)
+    return t_ant_from_products(beam.freqs_mhz, gwt, gw, settings)
 
 
 def check_products(beam: Beam, gwt: np.ndarray, gw: np.ndarray) -> None:
@@ -274,7 +274,9 @@ def check_products(beam: Beam, gwt: np.ndarray, gw: np.ndarray) -> None:
                               + ": there is no beam to score there")
 
 
-def _t_ant_from_products(freqs, gwt, gw, settings: FomSettings) -> np.ndarray:
+def t_ant_from_products(freqs, gwt, gw, settings: FomSettings) -> np.ndarray:
+    """T_ant [f, lst] (K) from the sky products: the power law (or a model's maps), the CMB and the
+    absorption feature as the settings say, over 4 pi (or the beam integral with ``normalise``)."""
     scale = (np.asarray(freqs) / 408.0) ** (-settings.beta)
     if settings.sky != "haslam":  # a model's maps are the sky at each frequency already
         t = gwt
@@ -362,6 +364,23 @@ def fom_from_spectra(
     return FomResult(freqs_mhz, np.asarray(lst_hours), t_ant, mask, res, fom, settings)
 
 
+def smoothing_matrix(freqs_mhz: np.ndarray, degree: int) -> np.ndarray:
+    """[f, f]: the least-squares fit of a degree-``degree`` Chebyshev series over the band, as the
+    linear map it is (what :meth:`Beam.frequency_smoothed` applies to each direction's G(nu)).
+    The sky integral is linear in G, so the products of the smoothed beam are this matrix times
+    the beam's: one sky convolution scores both."""
+    f = np.asarray(freqs_mhz, dtype=float)
+    x = (2 * f - f.min() - f.max()) / (f.max() - f.min())
+    basis = np.polynomial.chebyshev.chebvander(x, degree)  # [f, degree + 1]
+    return basis @ np.linalg.pinv(basis)
+
+
+def figure_of_merit_check(beam: Beam, settings: FomSettings) -> None:
+    """What refuses a beam before the sky is built: one it cannot cover (a FEKO quadrant) or fit."""
+    _hemisphere(beam)
+    fit_band_mask(beam.freqs_mhz, settings.fit_band_mhz, settings.n_terms)
+
+
 def figure_of_merit(
     beam: Beam,
     settings: FomSettings = FomSettings(),
@@ -371,11 +390,10 @@ def figure_of_merit(
 ) -> FomResult:
     """The FoM of a beam. With ``correction_beam`` the spectra are first divided by the
     beam-correction factor computed from that beam model (Mozdzen et al. 2019)."""
-    _hemisphere(beam)  # before the sky: a beam it cannot cover (a FEKO quadrant) ...
-    fit_band_mask(beam.freqs_mhz, settings.fit_band_mhz, settings.n_terms)  # ... or fit
+    figure_of_merit_check(beam, settings)
     gwt, gw, lst_hours = sky_products(beam, settings, progress)
     check_products(beam, gwt, gw)
-    t_ant = _t_ant_from_products(beam.freqs_mhz, gwt, gw, settings)
+    t_ant = t_ant_from_products(beam.freqs_mhz, gwt, gw, settings)
     extra: dict[str, Any] = {}
     if correction_beam is not None:
         b = beam_correction_factor(correction_beam, settings, freqs_mhz=beam.freqs_mhz)

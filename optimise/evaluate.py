@@ -21,7 +21,7 @@ import numpy as np
 from groundplane.beam import Beam
 from groundplane.design import Design, Soil
 from groundplane.errors import UserInputError
-from groundplane.fom import FomSettings, figure_of_merit, narrow_band_rms
+from groundplane.fom import FomResult, FomSettings, figure_of_merit_check, narrow_band_rms
 from groundplane.loss import largest_in_band, loss_or_note
 from groundplane.shapes import GroundPlane, to_dict
 from solvers.engines import ENGINES, Solver, make_solver
@@ -174,12 +174,24 @@ def candidate_beam(candidate: Candidate, settings: EvalSettings, progress: bool 
 SMOOTHING_DEGREE = 12  # Chebyshev degree over the band: keeps structure down to a ~10 MHz period
 
 
-def smoothed_fom_mk(beam: Beam, settings: EvalSettings) -> float | None:
-    """LST-averaged FoM of the beam after ``Beam.frequency_smoothed(SMOOTHING_DEGREE)``;
-    None when the band has too few frequencies for that fit."""
+def scored_products(beam: Beam, fom: FomSettings) -> tuple[FomResult, float | None]:
+    """The beam's FoM and the FoM of its G(nu) smoothed by a degree-SMOOTHING_DEGREE Chebyshev
+    fit (None when the band is too short for it), from ONE sky convolution: the sky integral is
+    linear in G, so the smoothed beam's products are the smoothing matrix times the beam's. (The
+    fit's rare slightly negative values near the horizon are kept here; ``Beam.frequency_smoothed``
+    clips them, to stay a beam: on the shipped NEC beam the two differ by 0.000 %.)"""
+    from groundplane.fom import check_products, fom_from_spectra, sky_products, smoothing_matrix, t_ant_from_products
+
+    figure_of_merit_check(beam, fom)
+    gwt, gw, lst_hours = sky_products(beam, fom)
+    check_products(beam, gwt, gw)
+    result = fom_from_spectra(beam.freqs_mhz, t_ant_from_products(beam.freqs_mhz, gwt, gw, fom), fom, lst_hours)
     if beam.freqs_mhz.size < 2 * SMOOTHING_DEGREE + 1:
-        return None
-    return float(figure_of_merit(beam.frequency_smoothed(SMOOTHING_DEGREE), settings.fom).lst_averaged_fom_mk)
+        return result, None
+    m = smoothing_matrix(beam.freqs_mhz, SMOOTHING_DEGREE)
+    smoothed = fom_from_spectra(beam.freqs_mhz, t_ant_from_products(beam.freqs_mhz, m @ gwt, m @ gw, fom), fom,
+                                lst_hours)
+    return result, float(smoothed.lst_averaged_fom_mk)
 
 
 def solver_cpu_s(beam: Beam) -> float | None:
@@ -190,7 +202,7 @@ def solver_cpu_s(beam: Beam) -> float | None:
 
 def score(candidate: Candidate, beam: Beam, settings: EvalSettings, seconds: float) -> dict[str, Any]:
     """The result row of a candidate whose beam is known."""
-    result = figure_of_merit(beam, settings.fom)
+    result, smoothed = scored_products(beam, settings.fom)  # one sky convolution for both
     fom_mk = float(result.lst_averaged_fom_mk)
     if not math.isfinite(fom_mk):
         raise ArithmeticError(f"candidate '{candidate.name}': FoM is not finite")
@@ -204,7 +216,7 @@ def score(candidate: Candidate, beam: Beam, settings: EvalSettings, seconds: flo
         "lst_averaged_fom_mk": fom_mk,
         # diagnostic: the FoM once narrow-band structure (solver artefacts) is smoothed out
         # of G(nu); `groundplane study spectral-artefacts` measures it on the wire grid
-        "fom_smoothed_mk": smoothed_fom_mk(beam, settings),
+        "fom_smoothed_mk": smoothed,
         "narrow_band_rms": narrow_band_rms(beam, SMOOTHING_DEGREE),
         "fom_mk": (result.fom * 1e3).round(4).tolist(),
         "lst_hours": result.lst_hours.round(6).tolist(),

@@ -196,3 +196,23 @@ def test_a_constrained_family_samples_its_valid_region():
     assert len(found) == 100 and {n for _, n in found} == set(fam.integer_values)
     for x, n in found:
         assert all(v <= 0 for v in fam.validity(x, n)) and 100.0 <= fam.area(x, n) <= 200.0
+
+
+def test_a_candidate_is_scored_with_one_sky_convolution(monkeypatch):
+    """The FoM and the G(nu)-smoothed diagnostic come from one sky product (the integral is
+    linear in G), equal to scoring the smoothed beam on its own to 1e-9."""
+    import groundplane.fom as fom_module
+    from groundplane.fom import FomSettings, figure_of_merit
+    from optimise.evaluate import SMOOTHING_DEGREE, evaluate
+    from tests.conftest import ROOT
+
+    calls = []
+    real = fom_module.sky_products
+    monkeypatch.setattr(fom_module, "sky_products", lambda *a, **k: calls.append(1) or real(*a, **k))
+    example = str(ROOT / "examples" / "lowband_square10_nec.npz")
+    settings = EvalSettings(fom=FomSettings(n_lst=24))
+    row = evaluate(Candidate("example", beam_paths=(example,)), settings)
+    assert row["status"] == "ok" and len(calls) == 1
+    beam = __import__("groundplane.beam", fromlist=["Beam"]).Beam.load(example)
+    alone = figure_of_merit(beam.frequency_smoothed(SMOOTHING_DEGREE), settings.fom).lst_averaged_fom_mk
+    assert row["fom_smoothed_mk"] == pytest.approx(alone, rel=1e-9)
