@@ -336,6 +336,8 @@ def write_report(front: Front, out: Path, command: str, settings: EvalSettings, 
             plane = from_dict(json.loads(r["design"]))
             cad.export(plane, out / f"answer-{r['budget_m2']:g}.step")
             cad.export(plane, out / f"answer-{r['budget_m2']:g}.svg")
+            with atomic_path(out / f"answer-{r['budget_m2']:g}.json", suffix=".tmp.json") as tmp:  # --design FILE
+                tmp.write_text(r["design"] + "\n")
 
     def pct(v: Any) -> str:
         return "-" if v is None or v == "" else f"{100 * float(v):.3f}"
@@ -367,8 +369,8 @@ def write_report(front: Front, out: Path, command: str, settings: EvalSettings, 
                   f"scored again at the confirm level (`ladder.csv`): Spearman **{cell(front.ladder_spearman, 2)}** "
                   "between the two levels."]
     lines += ["", "![FoM vs metal area](pareto.png)", "", "![convergence](convergence.png)", "",
-              "Each budget's search (history, confirmations) is in `budget-<A>/`; its answer as `answer-<A>.step` "
-              "and a 1:1 outline `answer-<A>.svg`."]
+              "Each budget's search (history, confirmations) is in `budget-<A>/`; its answer as `answer-<A>.step`, "
+              "a 1:1 outline `answer-<A>.svg` and a design file `answer-<A>.json` (`--design` of every command)."]
     path = out / "pareto.md"
     with atomic_path(path, suffix=".tmp.md") as tmp:
         tmp.write_text("\n".join(lines) + "\n")
