@@ -97,7 +97,7 @@ def baseline_root(rev: str) -> Path:
 
 def rms_db(a, b) -> np.ndarray:
     """Per frequency, the solid-angle-weighted rms of B - A in dB above 10 deg elevation."""
-    from groundplane.compare import direction_differences
+    from groundplane.comparison import direction_differences
 
     return direction_differences(a, b, 10.0)["rms_db"]
 

@@ -232,6 +232,12 @@ class Beam:
         gain = np.clip(fit, 0.0, None).reshape(self.gain.shape)
         return Beam(self.freqs_mhz, self.theta_deg, self.phi_deg, gain, {**self.meta, "frequency_smoothed_degree": degree})
 
+    def fom(self, **settings: Any):
+        """This beam's Figure of Merit (:func:`groundplane.fom`): ``beam.fom(n_lst=24).lst_averaged_mk``."""
+        from .api import fom
+
+        return fom(self, **settings)
+
     def with_meta(self, **extra: Any) -> "Beam":
         return Beam(self.freqs_mhz, self.theta_deg, self.phi_deg, self.gain, {**self.meta, **extra})
 

@@ -157,10 +157,21 @@ class FomResult:
     fom: np.ndarray  # [lst] K
     settings: FomSettings
     extra: dict[str, Any] = field(default_factory=dict)
+    ground_loss: np.ndarray | None = None  # per beam frequency (groundplane.fom() fills it), None: undefined
 
     @property
     def lst_averaged_fom_mk(self) -> float:
         return float(np.mean(self.fom) * 1e3)
+
+    @property
+    def lst_averaged_mk(self) -> float:
+        """The headline number: the FoM averaged over LST (bins), mK."""
+        return self.lst_averaged_fom_mk
+
+    @property
+    def fom_mk(self) -> np.ndarray:
+        """The FoM per LST (bin), mK."""
+        return self.fom * 1e3
 
     def in_lst_bins(self, hours: float) -> "FomResult":
         """The same spectra averaged into LST bins ``hours`` wide (no new sky product): one

@@ -75,20 +75,14 @@ def _setup_solve(p: argparse.ArgumentParser):
 
 
 def _run_solve(args: argparse.Namespace) -> int:
-    from groundplane.design import Design, FreeSpace, InfinitePEC
-
+    from .api import design_of, solve_with
     from .engines import make_solver
 
     plane = shape_from_args(args)
     soil, solve, model_settings = solve_options(args)
-    if args.ground == "pec":
-        design = Design(plane, InfinitePEC())
-    elif args.ground == "free":
-        design = Design(plane, FreeSpace())
-    else:
-        if plane is None:
-            raise CLIError("a solve over soil needs a ground plane: --preset NAME or a shape (or use --ground pec)")
-        design = Design(plane, soil)
+    if args.ground == "soil" and plane is None:
+        raise CLIError("a solve over soil needs a ground plane: --preset NAME or a shape (or use --ground pec)")
+    design = design_of(plane, args.ground, soil)
     solver = make_solver(solve.engine, model_settings, workers=solve.workers, progress=True,
                          use_cache=not args.no_cache)
     if args.deck:
@@ -98,7 +92,7 @@ def _run_solve(args: argparse.Namespace) -> int:
             tmp.write_text(deck)
         print(f"wrote {args.deck}{note} (the {solve.engine} engine's input deck)")
     note = check_output(args.output)  # before the solve, not after it
-    beam = solver.solve(design, solve.freqs_mhz)
+    beam = solve_with(design, solve, model_settings, progress=True, cache=not args.no_cache)  # the API's path
     out = beam.save(args.output)
     secs = sum(beam.meta.get("seconds_per_frequency", []))
     size = solver.model_size(beam.meta)

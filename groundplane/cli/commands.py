@@ -333,7 +333,7 @@ def _setup_compare(p: argparse.ArgumentParser):
 
 
 def _run_compare(args: argparse.Namespace) -> int:
-    from ..compare import compare_beams
+    from ..comparison import compare_beams
 
     if len(args.paths) < 2:
         raise CLIError("compare needs at least two beam files")

@@ -69,7 +69,7 @@ def zenith_dbi(beam: Beam, f: float = 75.0) -> float:
 
 def efficiency(beam: Beam, f: float = 75.0) -> float:
     """Upper-hemisphere mean gain / 2 at ``f``: the fraction of power not lost in the soil."""
-    from groundplane.compare import upper_hemisphere_efficiency
+    from groundplane.comparison import upper_hemisphere_efficiency
 
     return float(upper_hemisphere_efficiency(beam)[int(np.argmin(np.abs(beam.freqs_mhz - f)))])
 

@@ -12,7 +12,7 @@ import numpy as np
 
 from groundplane import paper
 from groundplane.beam import Beam
-from groundplane.compare import direction_differences, shared_grid
+from groundplane.comparison import direction_differences, shared_grid
 from groundplane.design import Design, FreeSpace, InfinitePEC
 from groundplane.shapes import PRESETS
 from solvers.engines import make_solver

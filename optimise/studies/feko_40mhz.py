@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from groundplane.compare import direction_differences, shared_grid, upper_hemisphere_efficiency
+from groundplane.comparison import direction_differences, shared_grid, upper_hemisphere_efficiency
 from groundplane.design import Design, Soil
 from groundplane.errors import UserInputError
 from groundplane.plots import pyplot, save_figure

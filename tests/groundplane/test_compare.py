@@ -7,7 +7,7 @@ import pytest
 
 from groundplane.beam import Beam
 from groundplane.cli import main
-from groundplane.compare import compare_beams, direction_differences, upper_hemisphere_efficiency
+from groundplane.comparison import compare_beams, direction_differences, upper_hemisphere_efficiency
 from tests.conftest import ROOT
 
 LOWBAND = ROOT / "examples" / "lowband_square10_nec.npz"

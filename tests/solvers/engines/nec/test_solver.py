@@ -64,7 +64,7 @@ def test_failed_solve_names_candidate_and_caches_nothing(tmp_path, monkeypatch):
     monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path))
     d = Design(Square(2.0), Soil())
     monkeypatch.setattr(engine, "_GOLDEN_OK", {"pynec-accel-1.7.6": -3.23})  # never load PyNEC beside healpy
-    monkeypatch.setattr(engine, "radiation_pattern", lambda *a: (_ for _ in ()).throw(RuntimeError("matrix singular")))
+    monkeypatch.setattr(engine, "pattern_and_impedance", lambda *a: (_ for _ in ()).throw(RuntimeError("matrix singular")))
     with pytest.raises(SolveError, match=r"Square\(side=2.0\).*matrix singular"):
         NecSolver(NecSettings(spacing=1.0), workers=0, progress=False).solve(d, [60.0])
     assert not list((tmp_path / "beams").glob("*.npz"))

@@ -7,7 +7,7 @@ from tests.conftest import quadrant_paths
 
 def _rms_db(beam, feko) -> float:
     """groundplane compare's rms difference over the sky 10 deg and more above the horizon."""
-    from groundplane.compare import direction_differences, shared_grid
+    from groundplane.comparison import direction_differences, shared_grid
 
     return float(direction_differences(*shared_grid([feko, beam]), elevation_cut_deg=10.0)["rms_db"][0])
 

@@ -1,0 +1,78 @@
+"""The solver layer's public functions, reached as ``groundplane.solve`` (through the
+``groundplane.api`` entry points: the core never imports this package)."""
+from __future__ import annotations
+
+from typing import Any
+
+from groundplane.beam import Beam
+from groundplane.design import Design, FreeSpace, InfinitePEC, Soil
+from groundplane.errors import UserInputError
+from groundplane.shapes import GroundPlane, preset
+
+from .cli import solve_options_from_mapping
+
+__all__ = ["solve", "design_of"]
+
+
+def design_of(plane: GroundPlane | str | Design | None, ground: str = "soil", soil: Soil | None = None) -> Design:
+    """What one solve is of: a plane (or a preset's name) on ``ground`` ('soil', 'pec' or 'free'),
+    or a :class:`~groundplane.design.Design` as it is."""
+    if isinstance(plane, Design):
+        return plane
+    if isinstance(plane, str):
+        plane = preset(plane)
+    if ground == "pec":
+        return Design(plane, InfinitePEC())
+    if ground == "free":
+        return Design(plane, FreeSpace())
+    if ground != "soil":
+        raise UserInputError(f"ground '{ground}': choose soil, pec or free")
+    if plane is None:
+        raise UserInputError("a solve over soil needs a ground plane (or ground='pec' for the blade alone)")
+    return Design(plane, soil or Soil())
+
+
+def solve(plane: GroundPlane | str | Design | None, *, ground: str = "soil", progress: bool = False,
+          cache: bool = True, **options: Any) -> Beam:
+    """The beam of a ground plane (a shape, a preset's name, or a Design), solved by an engine.
+
+    Parameters
+    ----------
+    plane
+        ``groundplane.shapes.preset("square-10")``, ``"square-10"``, any family member, a
+        :class:`~groundplane.design.Design`, or None with ``ground="pec"`` (the blade alone).
+    ground : str
+        'soil' (the default: lossy soil under the plate, ``eps_r`` and ``sigma`` options),
+        'pec' (infinite perfect ground) or 'free' (no ground).
+    progress : bool
+        Print a progress line per frequency.
+    cache : bool
+        Read and write the content-keyed beam cache (``$GROUNDPLANE_CACHE``).
+    **options
+        Any solver option by its sweep-file key, type-checked as the command line's: ``engine``
+        ('surface' or 'nec'), ``freqs`` ('55:97:2', a list, or 'fit-band'; default 40-100 MHz at
+        1 MHz), ``workers``, ``eps_r``, ``sigma``, ``mesh`` (m), ``plate_height``, ``method``,
+        ``feed_width``, ``blade_cells``, ... (``groundplane solve --help`` lists them).
+
+    Returns
+    -------
+    Beam
+        Linear power gain [f, theta, phi] and its metadata (the model, the input impedance, ...).
+
+    Examples
+    --------
+    >>> import groundplane as gp
+    >>> beam = gp.solve("square-10", freqs="55:97:21", mesh=2.0, blade_cells=(4, 4))  # doctest: +SKIP
+    >>> beam.freqs_mhz.tolist()  # doctest: +SKIP
+    [55.0, 76.0, 97.0]
+    """
+    soil, settings, model = solve_options_from_mapping(options, "solve(): ")
+    return solve_with(design_of(plane, ground, soil), settings, model, progress=progress, cache=cache)
+
+
+def solve_with(design: Design, settings, model, progress: bool = False, cache: bool = True) -> Beam:
+    """One design solved with settings already built (the command line's path and the API's)."""
+    from .engines import make_solver
+
+    solver = make_solver(settings.engine, model, workers=settings.workers, progress=progress, use_cache=cache)
+    return solver.solve(design, settings.freqs_mhz)
