@@ -3,7 +3,8 @@
 The public Python API, in the domain's words (every name has a docstring with an example; the
 API reference is ``docs/api``). From the core: :class:`Beam` (any solver's beam, any file),
 :mod:`shapes` (the families, ``preset``, ``from_file``), :class:`Soil` and the grounds,
-:func:`fom` (the chromaticity Figure of Merit), :func:`compare` and :func:`fabrication_plan`.
+:func:`fom` (the chromaticity Figure of Merit), :func:`compare`, :func:`export` (STEP/STL) and
+:func:`fabrication_plan`.
 Added by the higher layers (through entry points: the core never imports them): :func:`solve`
 (a plane's beam, by an engine), :func:`score` (a design on a scenario set), :func:`optimise` and
 :func:`sweep`. Everything else is internal and may change::
@@ -15,7 +16,7 @@ Added by the higher layers (through entry points: the core never imports them): 
 from typing import Any
 
 from . import shapes
-from .api import compare, fabrication_plan, fom
+from .api import compare, export, fabrication_plan, fom
 from .beam import Beam, BeamFormatError
 from .design import Design, FreeSpace, InfinitePEC, Soil
 from .errors import GroundplaneError, SolverError, UserInputError
@@ -23,7 +24,7 @@ from .fom import FomResult, FomSettings
 from .shapes import from_file, preset
 
 __all__ = ["Beam", "BeamFormatError", "Design", "FomResult", "FomSettings", "FreeSpace", "GroundplaneError",
-           "InfinitePEC", "Soil", "SolverError", "UserInputError", "compare", "fabrication_plan", "fom", "from_file",
+           "InfinitePEC", "Soil", "SolverError", "UserInputError", "compare", "export", "fabrication_plan", "fom", "from_file",
            "optimise", "preset", "score", "shapes", "solve", "sweep"]
 __version__ = "0.1.0"
 

@@ -14,7 +14,7 @@ from .options import build
 from .shapes import GroundPlane, preset
 
 API_GROUP = "groundplane.api"
-__all__ = ["fom", "compare", "fabrication_plan", "fom_settings", "higher_layer"]
+__all__ = ["fom", "compare", "export", "fabrication_plan", "fom_settings", "higher_layer"]
 
 
 def fom_settings(**settings: Any) -> FomSettings:
@@ -95,6 +95,25 @@ def fabrication_plan(plane: GroundPlane | str, out_dir: str | os.PathLike | None
     if out_dir is None:
         return plan.summary()
     return write_plan(plan, Path(out_dir), "groundplane.fabrication_plan()")
+
+
+def export(plane: GroundPlane | str, path: str | os.PathLike, *, thickness: float = 0.002,
+           with_antenna: bool = False) -> Path:
+    """Write the plane (or a preset's) for fabrication or a commercial solver, in the format the
+    suffix names: ``.step`` (cadquery; ``with_antenna`` adds the blade), ``.stl`` (trimesh),
+    ``.svg`` / ``.png`` (a dimensioned outline). Written atomically (``groundplane export``).
+
+    Examples
+    --------
+    >>> import groundplane as gp, tempfile, os, trimesh
+    >>> path = gp.export("square-10", os.path.join(tempfile.mkdtemp(), "square-10.stl"))
+    >>> round(trimesh.load(path).extents[0], 3)
+    10.0
+    """
+    from .cad import export as write
+
+    return write(preset(plane) if isinstance(plane, str) else plane, path, thickness=thickness,
+                 with_antenna=with_antenna)
 
 
 def higher_layer(name: str) -> Callable[..., Any]:

@@ -45,7 +45,12 @@ READER_GROUP = "groundplane.beam_readers"
 
 @dataclass(frozen=True, eq=False)
 class Beam:
-    """Linear power gain ``gain[f, theta, phi]`` on a regular angular grid, plus metadata."""
+    """Linear power gain ``gain[f, theta, phi]`` on a regular angular grid, plus metadata.
+
+    >>> beam = Beam.from_file("examples/lowband_square10_nec.npz")
+    >>> beam.gain.shape == (beam.freqs_mhz.size, beam.theta_deg.size, beam.phi_deg.size)
+    True
+    """
 
     freqs_mhz: np.ndarray
     theta_deg: np.ndarray

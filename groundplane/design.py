@@ -19,7 +19,11 @@ change the beam in the antenna frame, only where the sky is: the FoM takes it fr
 
 @dataclass(frozen=True)
 class Soil:
-    """A lossy half-space (SPEC section 2: MRO soil eps_r 3.5, sigma 0.02 S/m)."""
+    """A lossy half-space (SPEC section 2: MRO soil eps_r 3.5, sigma 0.02 S/m).
+
+    >>> Soil(eps_r=2.5, sigma=0.005)
+    Soil(eps_r=2.5, sigma=0.005)
+    """
 
     eps_r: float = option(paper.MRO_EPS_R, "soil relative permittivity")
     sigma: float = option(paper.MRO_SIGMA_S_PER_M, "soil conductivity (S/m)")
@@ -44,7 +48,12 @@ class FreeSpace:
 
 @dataclass(frozen=True)
 class Design:
-    """What one EM solve is of. ``plane`` is None over infinite PEC ground."""
+    """What one EM solve is of. ``plane`` is None over infinite PEC ground.
+
+    >>> from groundplane.shapes import Square
+    >>> Design(Square(10.0), Soil(3.5, 0.02)).plane.metal_area
+    100.0
+    """
 
     plane: GroundPlane | None
     ground: Soil | InfinitePEC | FreeSpace = field(default_factory=Soil)

@@ -165,7 +165,7 @@ class FomResult:
 
     @property
     def lst_averaged_mk(self) -> float:
-        """The headline number: the FoM averaged over LST (bins), mK."""
+        """The FoM averaged over LST (bins), mK: the headline number."""
         return self.lst_averaged_fom_mk
 
     @property

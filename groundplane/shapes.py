@@ -710,7 +710,12 @@ PRESETS: dict[str, GroundPlane] = {
 
 
 def preset(name: str) -> GroundPlane:
-    """A design-study preset by name."""
+    """A design-study preset by name (``PRESETS``: the paper's squares, plus, sawtooth, ...).
+
+    >>> p = preset("sawtooth-20-16")
+    >>> round(p.metal_area)
+    600
+    """
     try:
         return PRESETS[name]
     except KeyError:
@@ -760,7 +765,14 @@ def to_dict(shape: GroundPlane) -> dict[str, Any]:
 def from_file(path: str | Path) -> GroundPlane:
     """A design saved as JSON: ``{"shape": kind, **params}`` (:func:`to_dict`), ``{"preset": name}``,
     or an optimiser's ``best.json`` (its ``params``; the family from ``shape``, the ``search.json``
-    beside it, or the class named in ``name``)."""
+    beside it, or the class named in ``name``).
+
+    >>> import json, tempfile, os
+    >>> path = os.path.join(tempfile.mkdtemp(), "plane.json")
+    >>> _ = open(path, "w").write(json.dumps({"shape": "square", "side": 12.0}))
+    >>> from_file(path).metal_area
+    144.0
+    """
     path = Path(path)
     try:
         d = json.loads(path.read_text())
