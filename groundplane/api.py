@@ -55,6 +55,9 @@ def fom(beam: Beam | str | os.PathLike, *, correction_beam: Beam | None = None, 
     return result
 
 
+Beam.fom = fom  # beam.fom(...): attached here, the layer that owns the FoM (beam.py stays below it)
+
+
 def compare(*beams: Beam | str | os.PathLike, labels: list[str] | None = None, elevation_cut_deg: float = 10.0,
             **settings: Any):
     """Every beam against the first on their common frequencies and directions: dB differences
@@ -107,7 +110,7 @@ def export(plane: GroundPlane | str, path: str | os.PathLike, *, thickness: floa
     --------
     >>> import groundplane as gp, tempfile, os, trimesh
     >>> path = gp.export("square-10", os.path.join(tempfile.mkdtemp(), "square-10.stl"))
-    >>> round(trimesh.load(path).extents[0], 3)
+    >>> float(round(trimesh.load(path).extents[0], 3))
     10.0
     """
     from .cad import export as write

@@ -38,6 +38,8 @@ GAIN_NORMALISATIONS: dict[str, str] = {
 makes 1 - the upper hemisphere's share of the power a ground loss."""
 
 READER_GROUP = "groundplane.beam_readers"
+FORMATS_GROUP = "groundplane.beam_formats"  # a function listing the formats the reader reads
+WRITER_GROUP = "groundplane.beam_writers"  # one writer per output suffix (name = the suffix without its dot)
 """Entry-point group of beam-file readers: ``name = "module:function"`` where
 ``function(paths, format) -> Beam``. The distribution registers ``solvers.io:load_beam``
 (every vendor format); the core itself reads only the native ``.npz``."""
@@ -50,6 +52,10 @@ class Beam:
     >>> beam = Beam.from_file("examples/lowband_square10_nec.npz")
     >>> beam.gain.shape == (beam.freqs_mhz.size, beam.theta_deg.size, beam.phi_deg.size)
     True
+
+    ``beam.fom(**settings)`` is :func:`groundplane.fom` of the beam: the Figure of Merit lives
+    above the beam, so ``groundplane.api`` attaches it (as pandas attaches accessors) rather
+    than this module importing upward.
     """
 
     freqs_mhz: np.ndarray
@@ -237,12 +243,6 @@ class Beam:
         gain = np.clip(fit, 0.0, None).reshape(self.gain.shape)
         return Beam(self.freqs_mhz, self.theta_deg, self.phi_deg, gain, {**self.meta, "frequency_smoothed_degree": degree})
 
-    def fom(self, **settings: Any):
-        """This beam's Figure of Merit (:func:`groundplane.fom`): ``beam.fom(n_lst=24).lst_averaged_mk``."""
-        from .api import fom
-
-        return fom(self, **settings)
-
     def with_meta(self, **extra: Any) -> "Beam":
         return Beam(self.freqs_mhz, self.theta_deg, self.phi_deg, self.gain, {**self.meta, **extra})
 
@@ -297,6 +297,18 @@ class Beam:
         except BeamFormatError as exc:
             raise BeamFormatError(f"{path}: {exc}") from None
 
+    def write(self, path: str | os.PathLike) -> Path:
+        """Write the format the suffix names: a registered writer's (``.fits`` / ``.beamfits``:
+        a pyuvdata UVBeam, from the solver layer's ``groundplane.beam_writers``) or else the
+        native ``.npz`` (:meth:`save`)."""
+        from importlib.metadata import entry_points
+
+        suffix = Path(path).suffix.lower().lstrip(".")
+        for ep in entry_points(group=WRITER_GROUP):
+            if suffix and ep.name == suffix:
+                return ep.load()(self, path)
+        return self.save(path)
+
     @classmethod
     def from_file(cls, paths: str | os.PathLike | list, format: str = "auto") -> "Beam":
         """A beam from any supported file: a solver export (FEKO, CST, HFSS, ...) or the
@@ -312,6 +324,16 @@ class Beam:
                 raise UserInputError(f"no reader for beam format '{format}' is installed")
             return cls.load(single[0])
         return reader(paths, format)
+
+
+def reader_formats() -> list[str]:
+    """'auto' and every format the installed readers read (the ``--format`` choices); with no
+    reader installed, the native 'npz' alone."""
+    from importlib.metadata import entry_points
+
+    for ep in sorted(entry_points(group=FORMATS_GROUP), key=lambda e: e.name):
+        return list(ep.load()())
+    return ["auto", "npz"]
 
 
 def _reader():

@@ -49,7 +49,7 @@ from groundplane.files import append_jsonl, read_jsonl
 from groundplane.fom import FomSettings
 from groundplane.options import build
 from groundplane.shapes import PRESETS, SHAPES, from_dict
-from solvers.cli import solve_options_from_mapping
+from solvers.api import solve_options_from_mapping
 
 from .evaluate import (
     Candidate,

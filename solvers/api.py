@@ -2,16 +2,33 @@
 ``groundplane.api`` entry points: the core never imports this package)."""
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Mapping
 
 from groundplane.beam import Beam
 from groundplane.design import Design, FreeSpace, InfinitePEC, Soil
-from groundplane.errors import UserInputError
+from groundplane.errors import ConfigError, UserInputError
+from groundplane.options import build, option_keys
 from groundplane.shapes import GroundPlane, preset
 
-from .cli import solve_options_from_mapping
+__all__ = ["solve", "design_of", "solve_options_from_mapping"]
 
-__all__ = ["solve", "design_of"]
+
+def solve_options_from_mapping(values: Mapping[str, Any], where: str) -> tuple[Soil, Any, Any]:
+    """(soil, solve settings, engine settings) from a sweep file's ``[solver]`` table or the
+    API's keywords (strictly typed; unknown keys refused)."""
+    from .engines import ENGINES
+    from .engines.base import SolveSettings
+
+    engine = values.get("engine", SolveSettings().engine)
+    if not isinstance(engine, str) or engine not in ENGINES:
+        raise ConfigError(f"{where}engine '{engine}': choose one of {', '.join(ENGINES)}")
+    owners = (Soil, SolveSettings, ENGINES[engine].settings_class)
+    known = set().union(*(option_keys(c) for c in owners))
+    unknown = set(values) - known
+    if unknown:
+        raise ConfigError(f"{where}unknown key(s) {sorted(unknown)}; expected some of {sorted(known)}")
+    soil, solve, model = (build(c, {k: v for k, v in values.items() if k in option_keys(c)}, where) for c in owners)
+    return soil, solve, model
 
 
 def design_of(plane: GroundPlane | str | Design | None, ground: str = "soil", soil: Soil | None = None) -> Design:

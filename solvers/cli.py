@@ -2,13 +2,12 @@
 from __future__ import annotations
 
 import argparse
-from typing import TYPE_CHECKING, Any, Mapping
+from typing import TYPE_CHECKING, Any
 
 from groundplane.cli import CLIError, add_shape_options, command, shape_from_args
 from groundplane.design import Soil
-from groundplane.errors import ConfigError
 from groundplane.files import atomic_path, check_output
-from groundplane.options import add_options, build, from_args, option_keys
+from groundplane.options import add_options, from_args
 
 if TYPE_CHECKING:
     from .engines.base import SolveSettings
@@ -41,23 +40,6 @@ def solve_options(args: argparse.Namespace) -> tuple[Soil, SolveSettings, Any]:
     if solve.engine not in ENGINES:
         raise CLIError(f"--engine {solve.engine}: choose one of {', '.join(ENGINES)}")
     return from_args(Soil, args), solve, from_args(ENGINES[solve.engine].settings_class, args)
-
-
-def solve_options_from_mapping(values: Mapping[str, Any], where: str) -> tuple[Soil, SolveSettings, Any]:
-    """The same from a sweep file's ``[solver]`` table (strictly typed; unknown keys refused)."""
-    from .engines import ENGINES
-    from .engines.base import SolveSettings
-
-    engine = values.get("engine", SolveSettings().engine)
-    if not isinstance(engine, str) or engine not in ENGINES:
-        raise ConfigError(f"{where}engine '{engine}': choose one of {', '.join(ENGINES)}")
-    owners = (Soil, SolveSettings, ENGINES[engine].settings_class)
-    known = set().union(*(option_keys(c) for c in owners))
-    unknown = set(values) - known
-    if unknown:
-        raise ConfigError(f"{where}unknown key(s) {sorted(unknown)}; expected some of {sorted(known)}")
-    soil, solve, model = (build(c, {k: v for k, v in values.items() if k in option_keys(c)}, where) for c in owners)
-    return soil, solve, model
 
 
 @command("solve", "solve a candidate with an EM engine (the surface engine by default) and write the native beam file")

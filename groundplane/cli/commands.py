@@ -15,9 +15,9 @@ from . import CLIError, add_shape_options, command, shape_from_args
 
 
 def _format_choices() -> list[str]:
-    from solvers.io import format_names
+    from ..beam import reader_formats
 
-    return format_names()
+    return reader_formats()
 
 
 @command("fom", "score beam file(s): LST-averaged chromaticity FoM (mK)")
@@ -256,9 +256,6 @@ def _run_export(args: argparse.Namespace) -> int:
     return 0
 
 
-UVBEAM_SUFFIXES = (".fits", ".beamfits")
-
-
 @command("convert", "read any supported beam export, write the native .npz or a UVBeam (.fits)")
 def _setup_convert(p: argparse.ArgumentParser):
     p.add_argument("paths", nargs="+")
@@ -274,12 +271,7 @@ def _run_convert(args: argparse.Namespace) -> int:
 
     note = check_output(args.output)
     beam = Beam.from_file(args.paths, args.format)
-    if Path(args.output).suffix.lower() in UVBEAM_SUFFIXES:
-        from solvers.io.uvbeam import write_uvbeam
-
-        out = write_uvbeam(beam, args.output)
-    else:
-        out = beam.save(args.output)
+    out = beam.write(args.output)  # .fits / .beamfits: a UVBeam, through the solver layer's writer
     print(f"wrote {out}{note}: {beam.freqs_mhz.size} frequencies {beam.freqs_mhz.min():g}-{beam.freqs_mhz.max():g} MHz, "
           f"{beam.theta_deg.size} x {beam.phi_deg.size} directions")
     return 0
