@@ -215,7 +215,7 @@ def score(candidate: Candidate, beam: Beam, settings: EvalSettings, seconds: flo
         **row_head(candidate, "ok"),
         "lst_averaged_fom_mk": fom_mk,
         # diagnostic: the FoM once narrow-band structure (solver artefacts) is smoothed out
-        # of G(nu); `groundplane study spectral-artefacts` measures it on the wire grid
+        # of G(nu) (`groundplane fom --smooth-frequency`)
         "fom_smoothed_mk": smoothed,
         "narrow_band_rms": narrow_band_rms(beam, SMOOTHING_DEGREE),
         "fom_mk": (result.fom * 1e3).round(4).tolist(),

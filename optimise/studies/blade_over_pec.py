@@ -9,20 +9,19 @@ move the FoM, not what the real ones do.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from groundplane import paper
-from groundplane.beam import Beam
+from groundplane.antenna import AntennaParts
 from groundplane.design import Design, InfinitePEC
 from groundplane.fom import gain_polynomial_residuals
 from groundplane.progress import Progress
 from solvers.engines import make_solver
 from solvers.engines.base import SolveSettings
 from solvers.engines.nec import NecSettings
-from solvers.engines.nec.mesh import NecModel, fold_rotation, pec_reference_model
 from solvers.engines.surface import SurfaceSettings
 
 from ..provenance import write_md
@@ -34,55 +33,20 @@ from ._common import (
     verdict,
 )
 
-PART_CELL = 0.05  # wire-grid cell (m) of the top plate and shield: ~lambda/60 at 100 MHz
-PART_WIRE_RADIUS = 0.002  # as the blade's wires
 BAND_MHZ = (50.0, 100.0)  # the antenna's band (SPEC section 1), for the 3-term residuals
-BALUN_TUBE_RADIUS = 0.01  # the Roberts balun's brass outer conductor (19.05 mm inside, SPEC section 1)
 SURFACE_BLADE_CELLS = (24, 20)  # the surface engine's reference blade (results/cross_engine.md)
-
-
-@dataclass(frozen=True)
-class Parts:
-    """Antenna parts added to the bare blade (lengths in m; None = absent).
-
-    ``top_plate``: (side, gap above the panels) of a floating square plate centred over the
-    feed; ``shield``: (along x, across y, height) of an open box of four walls standing on
-    the ground around the balun tubes. Both sizes are assumptions (not published).
-    ``feed_span``: the port spread along the gap: a 1 V source on every gap-crossing wire at
-    the panel grid's nodes with |y| <= span / 2 (the paper does not say how its models were
-    fed; an edge port along the whole gap is the usual MoM choice for two plates)."""
-
-    balun: bool = False
-    top_plate: tuple[float, float] | None = None
-    shield: tuple[float, float, float] | None = None
-    feed_span: float | None = None
-
-    def label(self) -> str:
-        """The parts in words, for the table."""
-        out = []
-        if self.balun:
-            out.append("balun tubes (1 cm, feed edges to ground)")
-        if self.top_plate:
-            out.append(f"top plate {self.top_plate[0] * 100:g} cm square, {self.top_plate[1] * 100:g} cm above "
-                       "(assumed)")
-        if self.shield:
-            sx, sy, sh = self.shield
-            out.append(f"base shield {sx * 100:g} x {sy * 100:g} x {sh * 100:g} cm (assumed)")
-        if self.feed_span:
-            out.append(f"feed spread over {self.feed_span * 100:g} cm of the gap")
-        return " + ".join(out) or "none"
 
 
 # The rows: each part alone at two assumed sizes where the size is unknown, then all together.
 PARTS_ROWS = (
-    Parts(balun=True),
-    Parts(top_plate=(0.2, 0.02)),
-    Parts(top_plate=(0.4, 0.02)),
-    Parts(shield=(0.3, 0.2, 0.2)),
-    Parts(balun=True, top_plate=(0.4, 0.02), shield=(0.3, 0.2, 0.2)),
-    Parts(feed_span=0.26),
-    Parts(feed_span=0.52),
-    Parts(feed_span=1.252),  # the panels' whole inner edge: an edge port
+    AntennaParts(balun=True),
+    AntennaParts(top_plate=(0.2, 0.02)),
+    AntennaParts(top_plate=(0.4, 0.02)),
+    AntennaParts(shield=(0.3, 0.2, 0.2)),
+    AntennaParts(balun=True, top_plate=(0.4, 0.02), shield=(0.3, 0.2, 0.2)),
+    AntennaParts(feed_span=0.26),
+    AntennaParts(feed_span=0.52),
+    AntennaParts(feed_span=1.252),  # the panels' whole inner edge: an edge port
 )
 
 
@@ -90,72 +54,6 @@ PARTS_ROWS = (
 DIMENSIONS = (("panel_width", "panel across the axis", (1.0, 1.5)),
               ("panel_length", "panel along the axis", (0.9, 1.03)),
               ("height", "panel height", (1.0, 1.1)))
-
-
-def _grid_patch(model: NecModel, origin, u, v, radius: float) -> None:
-    """A rectangular wire grid spanning ``origin + s u + t v`` (s, t in [0, 1]), cells about
-    PART_CELL, every crossing a wire end (NEC joins wires only at their ends)."""
-    origin, u, v = (np.asarray(a, dtype=float) for a in (origin, u, v))
-    nu = max(2, int(np.ceil(np.linalg.norm(u) / PART_CELL)))
-    nv = max(1, int(np.ceil(np.linalg.norm(v) / PART_CELL)))
-    node = [[origin + i / nu * u + j / nv * v for j in range(nv + 1)] for i in range(nu + 1)]
-    for i in range(nu + 1):
-        for j in range(nv + 1):
-            if i < nu:
-                model.add(tuple(node[i][j]), tuple(node[i + 1][j]), radius)
-            if j < nv:
-                model.add(tuple(node[i][j]), tuple(node[i][j + 1]), radius)
-
-
-def _model_with(design: Design, parts: Parts) -> NecModel:
-    """The blade over PEC with ``parts`` added (whole), then folded for NEC's rotational
-    symmetry (every part here is symmetric under a 180 deg turn about z)."""
-    ant = design.antenna
-    model = pec_reference_model(design, NecSettings(rotational_symmetry=False))
-    if parts.balun:  # the outer conductors join the panels' inner edges to the ground
-        for x in (ant.gap / 2, -ant.gap / 2):
-            model.add((x, 0.0, 0.0), (x, 0.0, ant.height), BALUN_TUBE_RADIUS, 10)
-    if parts.feed_span:
-        ys = np.linspace(-ant.panel_width / 2, ant.panel_width / 2, NecSettings().blade_cells[1] + 1)
-        for y in ys[(np.abs(ys) > 1e-9) & (np.abs(ys) <= parts.feed_span / 2 + 1e-9)]:
-            tag = model.add((-ant.gap / 2, y, ant.height), (ant.gap / 2, y, ant.height), NecSettings().blade_wire_radius)
-            model.feeds.append((tag, 1.0, False))  # in parallel with the default feed at y = 0
-    if parts.top_plate:
-        side, gap = parts.top_plate
-        z = ant.height + gap
-        _grid_patch(model, (-side / 2, -side / 2, z), (side, 0, 0), (0, side, 0), PART_WIRE_RADIUS)
-    if parts.shield:
-        sx, sy, sh = parts.shield
-        corners = [(sx / 2, sy / 2), (-sx / 2, sy / 2), (-sx / 2, -sy / 2), (sx / 2, -sy / 2)]
-        for (ax, ay), (bx, by) in zip(corners, corners[1:] + corners[:1]):
-            # each wall's vertical wires stand on the ground; its top corner wires are shared
-            # with the next wall, so each wall leaves out its last column
-            _wall(model, (ax, ay), (bx, by), sh)
-    return fold_rotation(model) or model
-
-
-def _wall(model: NecModel, a, b, height: float) -> None:
-    """A vertical wire-grid wall from corner ``a`` toward corner ``b`` (not including b's
-    column, which the next wall adds), standing on the ground (z = 0 wires left out: they
-    would lie in the PEC)."""
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    n = max(2, int(np.ceil(np.linalg.norm(b - a) / PART_CELL)))
-    m = max(1, int(np.ceil(height / PART_CELL)))
-    zs = np.linspace(0.0, height, m + 1)
-    cols = [a + (b - a) * i / n for i in range(n + 1)]
-    for i in range(n):
-        p, q = cols[i], cols[i + 1]
-        for k in range(m):
-            model.add((p[0], p[1], zs[k]), (p[0], p[1], zs[k + 1]), PART_WIRE_RADIUS)
-        for z in zs[1:]:
-            model.add((p[0], p[1], z), (q[0], q[1], z), PART_WIRE_RADIUS)
-
-
-def parts_beam(model: NecModel, freqs: np.ndarray = FREQS) -> Beam:
-    """The calibrated beam of a blade-over-PEC model with parts (through the engine, cached)."""
-    from solvers.engines.nec import NecSolver
-
-    return NecSolver(NecSettings()).solve_model(model, freqs)
 
 
 def blade_over_pec(out: Path, command: str) -> None:
@@ -193,7 +91,8 @@ def blade_over_pec(out: Path, command: str) -> None:
     bar = Progress(len(PARTS_ROWS), "blade-over-pec models with parts", "model")
     foms = {}
     for parts in PARTS_ROWS:
-        foms[parts] = row(f"12 x 10 blade + {parts.label()}", parts_beam(_model_with(pec, parts)))
+        with_parts = replace(pec, antenna=replace(pec.antenna, parts=parts))  # built by the NEC engine
+        foms[parts] = row(f"12 x 10 blade + {parts.label()}", solve(with_parts, NecSettings())[0])
         bar.update()
     bar.close()
     published = {k: list(v) for k, v in worst_by_view.items()}  # the beam-level reading: Table 1's blade only
@@ -226,7 +125,7 @@ def _toward_feko(fom: float, start: float) -> bool:
     return abs(fom - paper.PEC_FOM_MK) < abs(start - paper.PEC_FOM_MK)
 
 
-def _reading(bare: float, foms: dict[Parts, float], worst: dict[str, list[float]]) -> list[str]:
+def _reading(bare: float, foms: dict[AntennaParts, float], worst: dict[str, list[float]]) -> list[str]:
     """The study's reading, each sentence chosen by a condition on its own numbers: parts,
     then the feed, then the beam level."""
     parts = [f for p, f in foms.items() if not p.feed_span]

@@ -241,7 +241,7 @@ def _design_md(table: list[dict], settings: EvalSettings, command: str,
         lines += ["", f"Same conclusions on the FoM with G(nu) smoothed (degree-{SMOOTHING_DEGREE} Chebyshev fit "
                       f"per direction, "
                       f"removing narrow-band structure such as the wire-grid model's: "
-                      f"`groundplane study spectral-artefacts`), at {sp}:", ""]
+                      f"`groundplane fom --smooth-frequency`), at {sp}:", ""]
         lines += conclusions(table, "smoothed_fom_mk")
         if other and any(t.get("smoothed_fom_mk") is not None for t in other):
             lines += ["", f"and at {osp}:", ""] + conclusions(other, "smoothed_fom_mk")

@@ -194,6 +194,10 @@ def add_blade(model: NecModel, antenna: BladeDipole, z: float, settings: NecSett
                 model.add((xs[i], y, z), (xs[i + 1], y, z), r)
     for x0, x1 in ((-antenna.gap / 2, 0.0), (0.0, antenna.gap / 2)):
         model.feeds.append((model.add((x0, 0.0, z), (x1, 0.0, z), r), 0.5, False))
+    if antenna.parts is not None:
+        from .parts import add_parts
+
+        add_parts(model, antenna, z, z - antenna.height, settings.blade_cells, r)
 
 
 def _rounded(p: Sequence[float]) -> tuple[float, ...]:

@@ -23,20 +23,17 @@ from __future__ import annotations
 
 import hashlib
 import json
-from contextlib import nullcontext
 from dataclasses import replace
 from pathlib import Path
-from typing import ClassVar, Iterable
+from typing import ClassVar
 
 import numpy as np
 
-from groundplane.beam import Beam
 from groundplane.design import Design, InfinitePEC
 from groundplane.errors import SettingsError, SolveError
 from groundplane.sky import cache_dir
 
 from ..base import FrequencySolver, Plan, register_engine
-from ..patterns import mirror_quadrant
 from ..workers import available_memory_bytes
 from . import engine
 from .mesh import NecModel, NecSettings, build_model, estimated_segments, pec_reference_model
@@ -124,27 +121,6 @@ class NecSolver(FrequencySolver):
         label = f"{design.plane.describe() if design.plane else 'blade over PEC'} ({model.n_segments} seg)"
         meta = {"n_segments": model.n_segments, "rotational_symmetry_sections": model.sections}
         return Plan(engine.solve_frequency, job, n_phi, meta, label)
-
-    def solve_model(self, model: NecModel, freqs_mhz: Iterable[float]) -> Beam:
-        """The beam of a hand-built blade-over-PEC model (a study's blade with extra parts),
-        calibrated on itself as the bare blade is; cached on its NEC deck like any solve."""
-        from ..cache import BeamCache
-
-        freqs = np.asarray(list(freqs_mhz), dtype=float)
-        ident = f"{MODEL_VERSION}|{engine.engine_info()}|{model.to_deck(list(map(float, freqs)))}"
-        key = "parts_" + hashlib.sha256(ident.encode()).hexdigest()[:24]  # the key the study's beams were kept under
-        cache = BeamCache() if self.use_cache else None
-        if cache is not None and (hit := cache.get(key)) is not None:
-            return hit
-        with cache.lock(key, f"nec model ({model.n_segments} segments)") if cache is not None else nullcontext():
-            if cache is not None and (hit := cache.get(key)) is not None:  # solved by another process meanwhile
-                return hit
-            job = engine.NecJob(model, 91, self.settings.far_field_step, "self")
-            gain = mirror_quadrant(engine.engine_call(engine.solve_band, job, freqs))
-            beam = Beam(freqs, np.arange(91.0), np.arange(360.0), gain, {"n_segments": model.n_segments})
-            if cache is not None:
-                cache.put(key, beam)
-        return beam
 
     def _calibration_store(self, ref: NecModel) -> Path:
         """Where the blade-over-PEC calibration of this blade model is kept (by content)."""

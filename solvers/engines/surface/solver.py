@@ -146,6 +146,9 @@ class SurfaceSolver(FrequencySolver):
         return {"engine": "groundplane-rwg", "version": str(MODEL_VERSION), **deps}
 
     def check(self, design: Design) -> None:
+        if design.antenna.parts is not None:
+            raise SettingsError(f"{design.label()}: the surface engine models the bare blade; antenna parts "
+                                f"({design.antenna.parts.label()}) need --engine nec")
         if design.ground_kind not in self.grounds:
             raise SettingsError(f"{design.label()}: the surface engine cannot solve over {design.ground_kind!r} "
                                 f"ground (it solves over {', '.join(self.grounds)})")

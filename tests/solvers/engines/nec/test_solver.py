@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from groundplane.design import Design, InfinitePEC, Soil
-from groundplane.errors import SolveError
+from groundplane.errors import SettingsError, SolveError
 from groundplane.shapes import Square
 from solvers.engines import BeamCache
 from solvers.engines.nec import (
@@ -135,22 +135,29 @@ def test_a_mesh_too_fine_to_fit_is_refused_before_it_is_built():
     assert time.perf_counter() - t0 < 5.0  # refused from the outline, not after meshing (that took minutes)
 
 
-def test_a_hand_built_model_is_solved_through_the_engine_and_cached(tmp_path, monkeypatch):
-    """A study's blade with extra parts reaches NEC through NecSolver.solve_model, calibrated on
-    itself as the bare blade over PEC is (mean gain 2) and cached: a second call solves nothing."""
-    import numpy as np
+def test_antenna_parts_are_solved_through_the_engine_interface(tmp_path, monkeypatch):
+    """The blade with a balun and a top plate (a design's antenna parts) is built and solved by
+    the NEC engine like any design: calibrated on itself over PEC (mean gain 2), with more
+    segments than the bare blade, keyed apart from it; the surface engine refuses parts."""
+    from dataclasses import replace
 
+    from groundplane.antenna import AntennaParts
     from groundplane.design import Design, InfinitePEC
     from solvers.engines.nec import NecSettings, NecSolver
-    from solvers.engines.nec import engine as nec_engine
-    from solvers.engines.nec.mesh import pec_reference_model
     from solvers.engines.patterns import upper_mean_gain
+    from solvers.engines.surface import SurfaceSettings, SurfaceSolver
 
     monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path))
-    model = pec_reference_model(Design(None, InfinitePEC()), NecSettings(blade_cells=(4, 4)))
-    beam = NecSolver(NecSettings()).solve_model(model, [60.0, 80.0])
+    bare = Design(None, InfinitePEC())
+    parts = replace(bare, antenna=replace(bare.antenna, parts=AntennaParts(balun=True, top_plate=(0.2, 0.02))))
+    solver = NecSolver(NecSettings(blade_cells=(4, 4)), workers=1, progress=False)
+    beam = solver.solve(parts, [60.0, 80.0])
     assert beam.shape == (2, 91, 360)
     assert all(abs(upper_mean_gain(g) - 2.0) < 1e-6 for g in beam.gain)
-    monkeypatch.setattr(nec_engine, "engine_call", lambda *a: (_ for _ in ()).throw(AssertionError("solved again")))
-    again = NecSolver(NecSettings()).solve_model(model, [60.0, 80.0])
-    assert np.array_equal(again.gain, beam.gain)
+    assert beam.meta["n_segments"] > solver.solve(bare, [60.0]).meta["n_segments"]
+    assert solver.cache_key(parts, [60.0]) != solver.cache_key(bare, [60.0])
+    assert bare.canonical() == Design(None, InfinitePEC()).canonical() and "parts" not in bare.canonical()
+    with pytest.raises(SettingsError, match="antenna parts"):
+        SurfaceSolver(SurfaceSettings(), progress=False).check(parts)
+    with pytest.raises(SettingsError, match="top_plate"):
+        AntennaParts(top_plate=(0.2,))
