@@ -78,7 +78,7 @@ def main() -> None:
     fast = float(np.median(runs))
     print(f"fast FoM, disk cache warm (loads the 47 MB sky): {cold_mem:.3f} s")
     print(f"fast FoM, in-memory sky (median of 5): {fast:.3f} s  "
-          f"LST-averaged FoM {r.lst_averaged_fom_mk:.2f} mK")
+          f"LST-averaged FoM {r.lst_averaged_mk:.2f} mK")
     n_ref = 6 if a.quick else 360
     t0 = time.perf_counter()
     t_ref = reference_antenna_temperature(beam, s, lst_grid(360)[:: 360 // n_ref][:n_ref])

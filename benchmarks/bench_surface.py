@@ -106,7 +106,7 @@ def foms(beam) -> tuple[float, float]:
     from groundplane.fom import FomSettings, figure_of_merit
 
     res = figure_of_merit(beam, FomSettings(lst_bin_hours=0.0))
-    return res.lst_averaged_fom_mk, res.in_lst_bins(2.0).lst_averaged_fom_mk
+    return res.lst_averaged_mk, res.in_lst_bins(2.0).lst_averaged_mk
 
 
 def split_times(beam, workers: int) -> tuple[float, float]:

@@ -140,8 +140,8 @@ class BeamSummary:
     ground_loss_note: str | None = None
 
     def as_json(self) -> dict[str, Any]:
-        return {"label": self.label, "path": self.path, "fom_mk": self.fom.lst_averaged_fom_mk,
-                "fom_binned_mk": self.fom_binned.lst_averaged_fom_mk, "fom_lst_mk": (self.fom.fom * 1e3).tolist(),
+        return {"label": self.label, "path": self.path, "fom_mk": self.fom.lst_averaged_mk,
+                "fom_binned_mk": self.fom_binned.lst_averaged_mk, "fom_lst_mk": (self.fom.fom * 1e3).tolist(),
                 "fom_binned_lst_mk": (self.fom_binned.fom * 1e3).tolist(), "efficiency": self.efficiency.tolist(),
                 "width_e_deg": _json_floats(self.width_e_deg), "width_h_deg": _json_floats(self.width_h_deg),
                 "ground_loss": None if self.ground_loss is None else self.ground_loss.tolist(),
@@ -211,10 +211,10 @@ class Comparison:
                  "", f"| beam | FoM every LST (mK) | FoM {self.bin_hours:g} h bins (mK) | FoM / {first}'s | "
                  "ground loss (%, min-max) | efficiency (min-max) | E width (deg, min-max) | H width (deg, min-max) |",
                  "|---|---|---|---|---|---|---|---|"]
-        ref = self.beams[0].fom.lst_averaged_fom_mk
+        ref = self.beams[0].fom.lst_averaged_mk
         for b in self.beams:
-            lines.append(f"| {b.label} | {b.fom.lst_averaged_fom_mk:.2f} | {b.fom_binned.lst_averaged_fom_mk:.2f} | "
-                         f"{b.fom.lst_averaged_fom_mk / ref:.4f} | {b.loss_cell()} | {_span(b.efficiency, 3)} | "
+            lines.append(f"| {b.label} | {b.fom.lst_averaged_mk:.2f} | {b.fom_binned.lst_averaged_mk:.2f} | "
+                         f"{b.fom.lst_averaged_mk / ref:.4f} | {b.loss_cell()} | {_span(b.efficiency, 3)} | "
                          f"{_span(b.width_e_deg, 1)} | {_span(b.width_h_deg, 1)} |")
         lines += [f"\n{b.label}: no ground loss: {b.ground_loss_note}" for b in self.beams if b.ground_loss_note]
         from .s11 import db, input_impedance, reflection

@@ -160,13 +160,9 @@ class FomResult:
     ground_loss: np.ndarray | None = None  # per beam frequency (groundplane.fom() fills it), None: undefined
 
     @property
-    def lst_averaged_fom_mk(self) -> float:
-        return float(np.mean(self.fom) * 1e3)
-
-    @property
     def lst_averaged_mk(self) -> float:
         """The FoM averaged over LST (bins), mK: the headline number."""
-        return self.lst_averaged_fom_mk
+        return float(np.mean(self.fom) * 1e3)
 
     @property
     def fom_mk(self) -> np.ndarray:
@@ -183,7 +179,7 @@ class FomResult:
 
     def as_json(self) -> dict[str, Any]:
         return {
-            "lst_averaged_fom_mk": self.lst_averaged_fom_mk,
+            "lst_averaged_fom_mk": self.lst_averaged_mk,
             "fom_mk": (self.fom * 1e3).tolist(),
             "lst_hours": self.lst_hours.tolist(),
             "freqs_mhz": self.freqs_mhz.tolist(),

@@ -64,7 +64,7 @@ def fom_figure(results: Sequence[FomResult], labels: Sequence[str], path: str | 
     gs = fig.add_gridspec(1 + (n + 1) // 2, 2, height_ratios=[1.6] + [1] * ((n + 1) // 2))
     ax = fig.add_subplot(gs[0, :])
     for r, lab in zip(results, labels):
-        ax.plot(r.lst_hours, r.fom * 1e3, label=f"{lab} ({r.lst_averaged_fom_mk:.1f} mK)")
+        ax.plot(r.lst_hours, r.fom * 1e3, label=f"{lab} ({r.lst_averaged_mk:.1f} mK)")
     ax.set_xlabel("LST (h)")
     ax.set_ylabel("FoM (mK)")
     ax.set_xlim(0, 24)
@@ -259,8 +259,8 @@ def comparison_figure(comparison, path: str | Path) -> Path:
     ax.legend(fontsize=7)
     ax = fig.add_subplot(spec[n_pairs, 1:])
     for b in c.beams:
-        line, = ax.plot(b.fom.lst_hours, b.fom.fom * 1e3, lw=1.0, label=f"{b.label} ({b.fom.lst_averaged_fom_mk:.1f} mK; "
-                        f"{b.fom_binned.lst_averaged_fom_mk:.1f} in {c.bin_hours:g} h bins)")
+        line, = ax.plot(b.fom.lst_hours, b.fom.fom * 1e3, lw=1.0, label=f"{b.label} ({b.fom.lst_averaged_mk:.1f} mK; "
+                        f"{b.fom_binned.lst_averaged_mk:.1f} in {c.bin_hours:g} h bins)")
         ax.plot(b.fom_binned.lst_hours, b.fom_binned.fom * 1e3, "o", color=line.get_color(), ms=4)
     ax.set(title="FoM vs LST (lines every LST, markers in LST bins)", xlabel="LST (h)", ylabel="FoM (mK)", xlim=(0, 24))
     ax.set_yscale("log")

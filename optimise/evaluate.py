@@ -21,7 +21,7 @@ import numpy as np
 from groundplane.beam import Beam
 from groundplane.design import Design, Soil
 from groundplane.errors import UserInputError
-from groundplane.fom import FomResult, FomSettings, figure_of_merit_check, narrow_band_rms
+from groundplane.fom import FomResult, FomSettings, figure_of_merit, figure_of_merit_check, narrow_band_rms
 from groundplane.loss import largest_in_band, loss_or_note
 from groundplane.shapes import GroundPlane, to_dict
 from solvers.engines import ENGINES, Solver, make_solver
@@ -191,7 +191,7 @@ def scored_products(beam: Beam, fom: FomSettings) -> tuple[FomResult, float | No
     m = smoothing_matrix(beam.freqs_mhz, SMOOTHING_DEGREE)
     smoothed = fom_from_spectra(beam.freqs_mhz, t_ant_from_products(beam.freqs_mhz, m @ gwt, m @ gw, fom), fom,
                                 lst_hours)
-    return result, float(smoothed.lst_averaged_fom_mk)
+    return result, float(smoothed.lst_averaged_mk)
 
 
 def solver_cpu_s(beam: Beam) -> float | None:
@@ -203,7 +203,7 @@ def solver_cpu_s(beam: Beam) -> float | None:
 def score(candidate: Candidate, beam: Beam, settings: EvalSettings, seconds: float) -> dict[str, Any]:
     """The result row of a candidate whose beam is known."""
     result, smoothed = scored_products(beam, settings.fom)  # one sky convolution for both
-    fom_mk = float(result.lst_averaged_fom_mk)
+    fom_mk = float(result.lst_averaged_mk)
     if not math.isfinite(fom_mk):
         raise ArithmeticError(f"candidate '{candidate.name}': FoM is not finite")
     loss, loss_note = loss_or_note(beam)
@@ -248,6 +248,16 @@ def evaluate(candidate: Candidate, settings: EvalSettings, progress: bool = Fals
         raise
     except Exception as exc:  # noqa: BLE001 - reported in the row, never swallowed silently
         return failed_row(candidate, f"{type(exc).__name__}: {exc}")
+
+
+def pec_floor_mk(settings: EvalSettings, progress: bool = False) -> float:
+    """The blade alone over infinite PEC on the same engine, mesh and FoM settings (the paper's
+    reference case): the part of a design's FoM that comes from the antenna model, and a floor
+    no finite plane on soil goes below in this model."""
+    from groundplane.design import InfinitePEC
+
+    beam = settings.make_solver(progress).solve(Design(None, InfinitePEC()), settings.freqs_mhz)
+    return float(figure_of_merit(beam, settings.fom).lst_averaged_mk)
 
 
 def row_head(candidate: Candidate, status: str) -> dict[str, Any]:

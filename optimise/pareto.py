@@ -18,12 +18,10 @@ from typing import Any, Callable
 
 import numpy as np
 
-from groundplane.design import Design, InfinitePEC
 from groundplane.files import atomic_path, write_csv
-from groundplane.fom import figure_of_merit
 from groundplane.shapes import PRESETS, to_dict
 
-from .evaluate import Candidate, EvalSettings, evaluate
+from .evaluate import Candidate, EvalSettings, evaluate, pec_floor_mk
 from .provenance import header
 from .report import cell
 from .search import OptimiseResult, best_plane, family, optimise
@@ -65,13 +63,6 @@ def _scored(candidate: Candidate, settings: EvalSettings, evaluate_fn, constrain
     return {"fom_mk": fom, "worst_fom_mk": row.get("worst_fom_mk", fom), "mean_fom_mk": row.get("mean_fom_mk", fom),
             "max_loss": loss, "loss_spread": row.get("loss_spread"), "feasible": not broken,
             "violations": "; ".join(broken)}
-
-
-def pec_floor_mk(settings: EvalSettings) -> float:
-    """The blade over infinite PEC on the same engine, mesh and FoM settings: no finite ground
-    plane on soil does better in this model (the paper's Table 2 reference case)."""
-    beam = settings.make_solver(progress=False).solve(Design(None, InfinitePEC()), settings.freqs_mhz)
-    return float(figure_of_merit(beam, settings.fom).lst_averaged_fom_mk)
 
 
 def preset_rows(confirm: EvalSettings, evaluate_fn, floor: Callable[[EvalSettings], float] = pec_floor_mk,

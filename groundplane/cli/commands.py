@@ -71,7 +71,7 @@ def _run_fom(args: argparse.Namespace) -> int:
         print(json.dumps(out))
         return 0
     src = beam.meta.get("source", args.paths[0])
-    print(f"{result.lst_averaged_fom_mk:.2f} mK  LST-averaged FoM of {src}")
+    print(f"{result.lst_averaged_mk:.2f} mK  LST-averaged FoM of {src}")
     print(f"  FoM min {result.fom.min() * 1e3:.1f} mK at LST {result.lst_hours[result.fom.argmin()]:.1f} h, "
           f"max {result.fom.max() * 1e3:.1f} mK at LST {result.lst_hours[result.fom.argmax()]:.1f} h; "
           f"fit {settings.fit_band_mhz[0]:g}-{settings.fit_band_mhz[1]:g} MHz, {settings.n_terms}-term LinLog"

@@ -11,6 +11,7 @@ from ..evaluate import (
     SMOOTHING_DEGREE,
     Candidate,
     EvalSettings,
+    pec_floor_mk,
 )
 from ..provenance import write_md
 from ..report import write_report
@@ -93,17 +94,14 @@ PAPER_PEC_FOM_MK = paper.PEC_FOM_MK
 
 
 def pec_reference_fom(settings: EvalSettings, progress: bool = False) -> float | None:
-    """Our FoM of the blade alone over infinite PEC with the same solver settings: the part
-    of every row's gap that comes from the antenna model rather than the ground plane."""
-    from groundplane.design import Design, InfinitePEC
+    """Our FoM of the blade alone over infinite PEC with the same solver settings
+    (:func:`~optimise.evaluate.pec_floor_mk`), or None when it cannot be solved."""
     from groundplane.errors import SolveError
-    from groundplane.fom import figure_of_merit
 
     try:
-        beam = settings.make_solver(progress).solve(Design(None, InfinitePEC()), settings.freqs_mhz)
+        return pec_floor_mk(settings, progress)
     except SolveError:
         return None
-    return float(figure_of_merit(beam, settings.fom).lst_averaged_fom_mk)
 
 
 def _study_table(settings: EvalSettings, out: Path, progress: bool, report: bool) -> list[dict]:

@@ -51,7 +51,7 @@ def plate_model(out: Path, command: str, grid=GRID, shape: str = "square-10") ->
         secs = float(sum(beam.meta["seconds_per_frequency"]))  # what the solve cost, cached or not
         res = figure_of_merit(beam, FomSettings(lst_bin_hours=0.0))
         row = {"spacing_m": sp, "height_m": h, "radius_m": r, "segments": beam.meta["n_segments"],
-               "fom_mk": res.lst_averaged_fom_mk, "smoothed12_mk": fom_mk(beam.frequency_smoothed(12)),
+               "fom_mk": res.lst_averaged_mk, "smoothed12_mk": fom_mk(beam.frequency_smoothed(12)),
                "narrow_rms": narrow_band_rms(beam), "efficiency_75": efficiency(beam),
                "fom_lst_min_mk": float(np.min(res.fom)) * 1e3, "fom_lst_max_mk": float(np.max(res.fom)) * 1e3,
                "wall_s": secs}

@@ -47,7 +47,7 @@ def sky_models(out: Path, settings: EvalSettings, command: str, skies: tuple[str
         row = {"preset": name, "paper_fom_mk": dict(DESIGN_STUDY).get(name)}
         for sky in skies:
             row[sky] = round(figure_of_merit(beam, replace(settings.fom, sky=sky), progress=progress)
-                             .lst_averaged_fom_mk, 1)
+                             .lst_averaged_mk, 1)
         rows.append(row)
         write_csv(out / "sky_models.csv", rows)
     write_md(out / "sky_models.md", _markdown(rows, skies, settings, command), "study sky-models", command)

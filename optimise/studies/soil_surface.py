@@ -130,8 +130,8 @@ def _measure(r: Row, beam: Beam, res: FomResult) -> dict:
     """The table's row for ``r`` from its beam and FoM result ``res``."""
     ref = paper.TABLE2_FOM_MK[paper.REFERENCE_SOLVER].get(r.preset) or paper.TABLE3_FOM_MK.get(r.preset)
     i75 = int(np.argmin(np.abs(beam.freqs_mhz - 75.0)))
-    fom = res.lst_averaged_fom_mk
-    binned = res.in_lst_bins(paper.DATA_LST_BIN_HOURS).lst_averaged_fom_mk
+    fom = res.lst_averaged_mk
+    binned = res.in_lst_bins(paper.DATA_LST_BIN_HOURS).lst_averaged_mk
     return {"preset": r.preset, "model": r.label(), "role": r.role, "engine": r.engine, "spacing_m": r.spacing,
             "height_m": r.height, "fom_mk": fom, "paper_mk": ref, "ratio": fom / ref if ref else float("nan"),
             "fom_binned_mk": binned, "ratio_binned": binned / ref if ref else float("nan"),
@@ -139,7 +139,7 @@ def _measure(r: Row, beam: Beam, res: FomResult) -> dict:
             # the paper's second number for this plane (an independent check of the binning)
             "fom_binned_absorption_mk": figure_of_merit(beam, FomSettings(lst_bin_hours=paper.DATA_LST_BIN_HOURS,
                                                                    absorption=Absorption()))
-            .lst_averaged_fom_mk if r.role == "extended" else None,
+            .lst_averaged_mk if r.role == "extended" else None,
             "fom_lst_min_mk": float(np.min(res.fom)) * 1e3, "fom_lst_max_mk": float(np.max(res.fom)) * 1e3,
             "fom_peak_lst_h": float(np.asarray(res.lst_hours)[int(np.argmax(res.fom))]),
             "efficiency_75": efficiency(beam), "zenith_75": float(beam.gain[i75, 0, 0]),

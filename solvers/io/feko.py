@@ -59,6 +59,30 @@ def _close_block(path: Path, block: dict | None, lineno: int, blocks: list[dict]
     blocks.append({**block, "rows": rows})
 
 
+def _ffe_block(body: str, path: Path, lineno: int) -> dict:
+    """A new frequency block from its ``#Frequency:`` line (in Hz)."""
+    try:
+        f_hz = float(body.split(":", 1)[1])
+    except ValueError:
+        raise BeamFormatError(f"{where(path, lineno)}: unreadable frequency '{body}'") from None
+    check_frequency(f_hz / 1e6, where(path, lineno))
+    return {"freq_mhz": f_hz / 1e6, "rows": [], "columns": None, "n_theta": None, "n_phi": None, "start": lineno,
+            "result": None}
+
+
+def _ffe_header(body: str, block: dict, path: Path, lineno: int) -> None:
+    """A block's header line: its sample counts, result type or column names (others ignored)."""
+    low = body.lower()
+    if low.startswith("no. of theta samples:"):
+        block["n_theta"] = _count(body, path, lineno)
+    elif low.startswith("no. of phi samples:"):
+        block["n_phi"] = _count(body, path, lineno)
+    elif low.startswith("result type:"):
+        block["result"] = body.split(":", 1)[1].strip()
+    elif '"Theta"' in body:
+        block["columns"] = re.findall(r'"([^"]+)"', body)
+
+
 def read_ffe(path: str | Path) -> Beam:
     """One FEKO ``.ffe`` file (all frequency blocks in it). One piece: a line-by-line reader whose
     every refusal names the file and line it is at."""
@@ -75,21 +99,9 @@ def read_ffe(path: str | Path) -> Beam:
                 body = line.lstrip("#").strip()
                 if body.lower().startswith("frequency:"):
                     _close_block(path, cur, lineno, blocks)
-                    try:
-                        f_hz = float(body.split(":", 1)[1])
-                    except ValueError:
-                        raise BeamFormatError(f"{where(path, lineno)}: unreadable frequency '{body}'") from None
-                    check_frequency(f_hz / 1e6, where(path, lineno))  # '#Frequency:' is in Hz
-                    cur = {"freq_mhz": f_hz / 1e6, "rows": [], "columns": None, "n_theta": None,
-                           "n_phi": None, "start": lineno, "result": None}
-                elif cur is not None and body.lower().startswith("no. of theta samples:"):
-                    cur["n_theta"] = _count(body, path, lineno)
-                elif cur is not None and body.lower().startswith("no. of phi samples:"):
-                    cur["n_phi"] = _count(body, path, lineno)
-                elif cur is not None and body.lower().startswith("result type:"):
-                    cur["result"] = body.split(":", 1)[1].strip()
-                elif cur is not None and '"Theta"' in body:
-                    cur["columns"] = re.findall(r'"([^"]+)"', body)
+                    cur = _ffe_block(body, path, lineno)
+                elif cur is not None:
+                    _ffe_header(body, cur, path, lineno)
                 continue
             if cur is None or cur["columns"] is None:
                 raise BeamFormatError(
@@ -208,30 +220,44 @@ def read_edges_table(path: str | Path, n_azimuth: int = 360) -> Beam:
                 impedance[f_cur] = complex(float(z.group(2)), float(z.group(3))) if z else None
                 continue
             if line.startswith("#"):
-                cols = line.lstrip("#").split()
-                try:
-                    e = np.asarray([float(c) for c in cols])
-                except ValueError:
-                    raise BeamFormatError(f"{where(path, lineno)}: unreadable elevation header line") from None
-                if elev is not None and (e.shape != elev.shape or not np.allclose(e, elev)):
-                    raise BeamFormatError(f"{where(path, lineno)}: elevation columns differ from the first block")
-                elev = e
+                elev = _edges_elevations(line, elev, where(path, lineno))
                 continue
             if f_cur is None:
                 raise BeamFormatError(f"{where(path, lineno)}: data before the first '#FREQUENCY nn MHz' header")
-            parts = line.split()
-            if parts[0].lower() != "az":
-                raise BeamFormatError(f"{where(path, lineno)}: expected a row starting 'az N', got '{parts[0]}'")
-            n_el = elev.size if elev is not None else 91
-            vals = _float_row(parts[1:], path, lineno, 1 + n_el)
-            if not np.isfinite(vals[0]) or vals[0] != int(vals[0]):
-                raise BeamFormatError(f"{where(path, lineno)}: azimuth row number '{parts[1]}' is not a whole number")
-            if int(vals[0]) != len(rows):
-                raise BeamFormatError(
-                    f"{where(path, lineno)}: azimuth row {int(vals[0])} out of order, expected {len(rows)}"
-                )
-            rows.append(vals[1:])
+            rows.append(_edges_row(line, path, lineno, elev, len(rows)))
         close(lineno)
+    return _edges_beam(path, freqs, tables, elev, impedance, n_azimuth)
+
+
+def _edges_elevations(line: str, first: np.ndarray | None, at: str) -> np.ndarray:
+    """An elevation header line's columns (deg), which every block must repeat."""
+    try:
+        e = np.asarray([float(c) for c in line.lstrip("#").split()])
+    except ValueError:
+        raise BeamFormatError(f"{at}: unreadable elevation header line") from None
+    if first is not None and (e.shape != first.shape or not np.allclose(e, first)):
+        raise BeamFormatError(f"{at}: elevation columns differ from the first block")
+    return e
+
+
+def _edges_row(line: str, path: Path, lineno: int, elev: np.ndarray | None, expected: int) -> np.ndarray:
+    """One ``az N g_el0 ... g_el90`` row's gains (dB), refused out of order or short."""
+    parts = line.split()
+    if parts[0].lower() != "az":
+        raise BeamFormatError(f"{where(path, lineno)}: expected a row starting 'az N', got '{parts[0]}'")
+    n_el = elev.size if elev is not None else 91
+    vals = _float_row(parts[1:], path, lineno, 1 + n_el)
+    if not np.isfinite(vals[0]) or vals[0] != int(vals[0]):
+        raise BeamFormatError(f"{where(path, lineno)}: azimuth row number '{parts[1]}' is not a whole number")
+    if int(vals[0]) != expected:
+        raise BeamFormatError(f"{where(path, lineno)}: azimuth row {int(vals[0])} out of order, expected {expected}")
+    return vals[1:]
+
+
+def _edges_beam(path: Path, freqs: list[float], tables: list[np.ndarray], elev: np.ndarray | None,
+                impedance: dict[float, complex | None], n_azimuth: int) -> Beam:
+    """The blocks read as one beam, in frequency order (the header's impedance kept when every
+    block has one)."""
     if not freqs:
         raise BeamFormatError(f"{path}: no '#FREQUENCY nn MHz' block; not an EDGES-format gain table")
     el = elev if elev is not None else np.arange(91.0)

@@ -39,6 +39,43 @@ def _gain_column(names: list[str], header: list[str], path: Path) -> tuple[int, 
                           f"dB(DirTotal), ...) in {header}")
 
 
+def _hfss_columns(header: list[str], path: Path) -> dict:
+    """Which columns hold theta, phi, frequency and gain, in which units (the frequency from the
+    gain header's Freq='..' qualifier when there is no frequency column)."""
+    parsed = []
+    for h in header:
+        m = _HEAD.match(h)
+        parsed.append((m.group(1).strip(), m.group(2).strip().lower(), m.group(3)) if m else (h.strip(), "", ""))
+    names = [p[0].lower() for p in parsed]
+
+    def col(prefix: str) -> int | None:
+        return next((i for i, n in enumerate(names) if n == prefix), None)
+
+    i_theta, i_phi, i_freq = col("theta"), col("phi"), col("freq")
+    if i_theta is None or i_phi is None:
+        raise BeamFormatError(
+            f"{where(path, 1)}: expected 'Theta [deg]' and 'Phi [deg]' columns in the HFSS header, got {header}"
+        )
+    i_gain, is_db = _gain_column(names, header, path)
+    fixed_freq = None
+    if i_freq is None:
+        m = _FREQ_QUAL.search(parsed[i_gain][2])
+        if not m:
+            raise BeamFormatError(f"{where(path, 1)}: no 'Freq [..]' column and no Freq='..' qualifier in the gain header")
+        fixed_freq = float(m.group(1)) * UNIT_SCALE_TO_MHZ[m.group(2).lower()]
+    f_scale = UNIT_SCALE_TO_MHZ.get(parsed[i_freq][1], None) if i_freq is not None else 1.0
+    if f_scale is None:
+        raise BeamFormatError(f"{where(path, 1)}: unknown frequency unit '{parsed[i_freq][1]}'")
+    ang_scale = {}
+    for i in (i_theta, i_phi):
+        unit = parsed[i][1]
+        if unit not in ("deg", "rad"):
+            raise BeamFormatError(f"{where(path, 1)}: angle unit '{unit}' of '{header[i]}' (expected deg or rad)")
+        ang_scale[i] = 1.0 if unit == "deg" else 180.0 / np.pi
+    return {"theta": i_theta, "phi": i_phi, "freq": i_freq, "gain": i_gain, "is_db": is_db, "fixed_freq": fixed_freq,
+            "f_scale": f_scale, "ang_scale": ang_scale}
+
+
 def read_hfss(path: str | Path) -> Beam:
     """One HFSS far-field CSV (any number of frequencies). One piece: a line-by-line reader whose
     every refusal names the file and line it is at."""
@@ -49,38 +86,8 @@ def read_hfss(path: str | Path) -> Beam:
             header = next(reader)
         except StopIteration:
             raise BeamFormatError(f"{path}: empty file") from None
-        parsed = []
-        for h in header:
-            m = _HEAD.match(h)
-            parsed.append((m.group(1).strip(), m.group(2).strip().lower(), m.group(3)) if m else (h.strip(), "", ""))
-        names = [p[0].lower() for p in parsed]
-
-        def col(prefix: str) -> int | None:
-            return next((i for i, n in enumerate(names) if n == prefix), None)
-
-        i_theta, i_phi, i_freq = col("theta"), col("phi"), col("freq")
-        if i_theta is None or i_phi is None:
-            raise BeamFormatError(
-                f"{where(path, 1)}: expected 'Theta [deg]' and 'Phi [deg]' columns in the HFSS header, got {header}"
-            )
-        i_gain, is_db = _gain_column(names, header, path)
-        fixed_freq = None
-        if i_freq is None:
-            m = _FREQ_QUAL.search(parsed[i_gain][2])
-            if not m:
-                raise BeamFormatError(
-                    f"{where(path, 1)}: no 'Freq [..]' column and no Freq='..' qualifier in the gain header"
-                )
-            fixed_freq = float(m.group(1)) * UNIT_SCALE_TO_MHZ[m.group(2).lower()]
-        f_scale = UNIT_SCALE_TO_MHZ.get(parsed[i_freq][1], None) if i_freq is not None else 1.0
-        if f_scale is None:
-            raise BeamFormatError(f"{where(path, 1)}: unknown frequency unit '{parsed[i_freq][1]}'")
-        ang_scale = {}
-        for i in (i_theta, i_phi):
-            unit = parsed[i][1]
-            if unit not in ("deg", "rad"):
-                raise BeamFormatError(f"{where(path, 1)}: angle unit '{unit}' of '{header[i]}' (expected deg or rad)")
-            ang_scale[i] = 1.0 if unit == "deg" else 180.0 / np.pi
+        c = _hfss_columns(header, path)
+        i_theta, i_phi, i_freq, i_gain, ang = c["theta"], c["phi"], c["freq"], c["gain"], c["ang_scale"]
         rows = []
         for lineno, rec in enumerate(reader, 2):
             if not rec or all(not r.strip() for r in rec):
@@ -88,12 +95,8 @@ def read_hfss(path: str | Path) -> Beam:
             if len(rec) != len(header):
                 raise BeamFormatError(f"{where(path, lineno)}: expected {len(header)} fields, found {len(rec)}")
             try:
-                rows.append([
-                    float(rec[i_freq]) * f_scale if i_freq is not None else fixed_freq,
-                    float(rec[i_theta]) * ang_scale[i_theta],
-                    float(rec[i_phi]) * ang_scale[i_phi],
-                    float(rec[i_gain]),
-                ])
+                rows.append([float(rec[i_freq]) * c["f_scale"] if i_freq is not None else c["fixed_freq"],
+                             float(rec[i_theta]) * ang[i_theta], float(rec[i_phi]) * ang[i_phi], float(rec[i_gain])])
             except ValueError:
                 raise BeamFormatError(f"{where(path, lineno)}: not a number in {rec}") from None
             if i_freq is not None and (len(rows) == 1 or rows[-1][0] != rows[-2][0]):
@@ -101,7 +104,7 @@ def read_hfss(path: str | Path) -> Beam:
     if not rows:
         raise BeamFormatError(f"{path}: header but no data rows")
     a = np.asarray(rows)
-    gain = db_to_linear(a[:, 3]) if is_db else a[:, 3]
+    gain = db_to_linear(a[:, 3]) if c["is_db"] else a[:, 3]
     freqs = np.unique(np.round(a[:, 0], 9))
     grids = []
     for f in freqs:

@@ -73,7 +73,7 @@ def test_grids_are_compared_on_the_directions_they_share(lowband, tmp_path):
     c = compare_beams([lowband, coarse], ["fine", "coarse"])
     assert c.theta_deg.size == 46 and c.phi_deg.size == 180
     assert np.all(c.pairs[0].rms_db == 0.0)
-    assert c.beams[0].fom.lst_averaged_fom_mk == c.beams[1].fom.lst_averaged_fom_mk
+    assert c.beams[0].fom.lst_averaged_mk == c.beams[1].fom.lst_averaged_mk
 
 
 def test_efficiency_of_an_isotropic_beam_is_half():

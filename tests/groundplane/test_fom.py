@@ -71,9 +71,9 @@ def test_achromatic_beam_has_zero_fom(highband):
     g = np.repeat(highband.gain[10:11], highband.freqs_mhz.size, axis=0)
     flat = Beam(highband.freqs_mhz, highband.theta_deg, highband.phi_deg, g)
     r = figure_of_merit(flat, HIGH)
-    assert r.lst_averaged_fom_mk < 1e-3
+    assert r.lst_averaged_mk < 1e-3
     # the real, chromatic beam is far above that
-    assert figure_of_merit(highband, HIGH).lst_averaged_fom_mk > 10
+    assert figure_of_merit(highband, HIGH).lst_averaged_mk > 10
 
 def test_linlog_absorbs_power_law_and_catches_a_bump():
     f = np.arange(55.0, 98.0)
@@ -93,14 +93,14 @@ def test_absorption_feature_shape_and_injection(highband):
     s0 = FomSettings()
     g = np.ones((f.size, 91, 360))
     beam = Beam(f, np.arange(91.0), np.arange(360.0), g)
-    base = figure_of_merit(beam, s0).lst_averaged_fom_mk
-    inj = figure_of_merit(beam, FomSettings(absorption=Absorption())).lst_averaged_fom_mk
+    base = figure_of_merit(beam, s0).lst_averaged_mk
+    inj = figure_of_merit(beam, FomSettings(absorption=Absorption())).lst_averaged_mk
     assert base < 1e-3 and inj > 20  # a 500 mK trough leaves tens of mK after a 5-term fit
 
 def test_beam_correction_with_same_model_removes_structure(highband):
     plain = figure_of_merit(highband, HIGH)
     corrected = figure_of_merit(highband, HIGH, correction_beam=highband)
-    assert corrected.lst_averaged_fom_mk < 1e-3 * plain.lst_averaged_fom_mk
+    assert corrected.lst_averaged_mk < 1e-3 * plain.lst_averaged_mk
     b = beam_correction_factor(highband, HIGH, nu_ref_mhz=140.0)
     assert np.allclose(b[np.flatnonzero(highband.freqs_mhz == 140.0)[0]], 1.0)
 
@@ -154,7 +154,7 @@ def test_damaged_sky_cache_is_recomputed_not_trusted(highband, tmp_path, monkeyp
     monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path))
     sky._MEMORY.clear()
     s = FomSettings(fit_band_mhz=(90.0, 190.0), n_lst=4, lst_bin_hours=0.0)
-    good = figure_of_merit(highband, s).lst_averaged_fom_mk
+    good = figure_of_merit(highband, s).lst_averaged_mk
     f = next(tmp_path.glob("horizon_sky_*.npy"))
     raw = f.read_bytes()
     if damage == "overwrite":  # same size, values replaced (header kept)
@@ -170,7 +170,7 @@ def test_damaged_sky_cache_is_recomputed_not_trusted(highband, tmp_path, monkeyp
         f.write_bytes(raw[:128] + np.full((len(raw) - 128) // 4, -5.0, np.float32).tobytes())
         f.with_suffix(".crc.json").unlink()
     sky._MEMORY.clear()
-    assert figure_of_merit(highband, s).lst_averaged_fom_mk == pytest.approx(good, rel=1e-9)
+    assert figure_of_merit(highband, s).lst_averaged_mk == pytest.approx(good, rel=1e-9)
 
 
 def test_narrow_band_rms_sees_resonances_not_broadband_chromaticity():
@@ -197,12 +197,12 @@ def test_lst_bins_average_spectra_before_the_fit():
     t_flip = smooth[:, None] + bump[:, None] * flip[None, :]
     t_stay = smooth[:, None] + bump[:, None] * np.ones(24)[None, :]
     every = fom_from_spectra(f, t_flip, FomSettings(n_lst=24, lst_bin_hours=0.0))
-    assert every.lst_averaged_fom_mk > 50
+    assert every.lst_averaged_mk > 50
     flip_binned = fom_from_spectra(f, t_flip, binned)
-    assert flip_binned.fom.shape == (12,) and flip_binned.lst_averaged_fom_mk < 1e-6
+    assert flip_binned.fom.shape == (12,) and flip_binned.lst_averaged_mk < 1e-6
     assert np.allclose(flip_binned.lst_hours, np.arange(12) * 2 + 1)
     stay = fom_from_spectra(f, t_stay, binned)
-    assert stay.lst_averaged_fom_mk == pytest.approx(fom_from_spectra(f, t_stay, FomSettings(n_lst=24, lst_bin_hours=0.0)).lst_averaged_fom_mk)
+    assert stay.lst_averaged_mk == pytest.approx(fom_from_spectra(f, t_stay, FomSettings(n_lst=24, lst_bin_hours=0.0)).lst_averaged_mk)
 
 
 def test_lst_bins_must_tile_the_day_and_leave_old_identities_alone():

@@ -214,5 +214,5 @@ def test_a_candidate_is_scored_with_one_sky_convolution(monkeypatch):
     row = evaluate(Candidate("example", beam_paths=(example,)), settings)
     assert row["status"] == "ok" and len(calls) == 1
     beam = __import__("groundplane.beam", fromlist=["Beam"]).Beam.load(example)
-    alone = figure_of_merit(beam.frequency_smoothed(SMOOTHING_DEGREE), settings.fom).lst_averaged_fom_mk
+    alone = figure_of_merit(beam.frequency_smoothed(SMOOTHING_DEGREE), settings.fom).lst_averaged_mk
     assert row["fom_smoothed_mk"] == pytest.approx(alone, rel=1e-9)

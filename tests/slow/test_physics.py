@@ -25,7 +25,7 @@ def test_blade_over_pec_full_band_matches_table1_widths_and_the_solver_spread():
     kappa = np.asarray(beam.meta["gain_calibration_kappa"])  # uncalibrated mean gain / 2, per frequency
     assert np.all((kappa > 0.8) & (kappa < 0.9)) and np.max(np.abs(np.diff(kappa))) < 1e-3  # 1 MHz apart: <= 1.7e-4 seen
     lo, hi = paper.PEC_FOM_RANGE_MK
-    fom = figure_of_merit(beam, FomSettings()).lst_averaged_fom_mk
+    fom = figure_of_merit(beam, FomSettings()).lst_averaged_mk
     assert lo <= fom <= hi, fom
 
 
@@ -35,7 +35,7 @@ def test_design_study_row_square10_on_soil():
     beam = NecSolver(NecSettings(spacing=1.0), workers=2, progress=False, use_cache=False).solve(
         Design(PRESETS["square-10"], Soil()), DEFAULT_FREQS_MHZ)
     res = figure_of_merit(beam, FomSettings())
-    assert np.isfinite(res.lst_averaged_fom_mk) and res.lst_averaged_fom_mk > 0
+    assert np.isfinite(res.lst_averaged_mk) and res.lst_averaged_mk > 0
     peak = res.lst_hours[int(np.argmax(res.fom))]
     assert 15.0 <= peak <= 20.0, peak
 
