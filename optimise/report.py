@@ -196,33 +196,50 @@ def cell(v: Any, nd: int = 1) -> str:
 
 
 def _figures(ok: list[dict[str, Any]], out: Path) -> dict[str, Path]:
-    """The sweep report's figures (FoM vs metal, outlines, residuals). One piece: the panels
-    share one ranking and one colour per candidate."""
-    from groundplane.cad import plot_outline
-
-    plt = pyplot()
+    """The sweep report's figures (outlines, FoM vs LST, residuals, FoM vs metal), each panel
+    with the rows in the same order, so one candidate keeps one colour throughout."""
     figs: dict[str, Path] = {}
     shapes = [r for r in ok if r.get("shape") != "beam-file"]
     if shapes:
-        n = len(shapes)
-        cols = min(n, 4)
-        nrows = int(np.ceil(n / cols))
-        fig, axes = plt.subplots(nrows, cols, figsize=(3.2 * cols, 3.2 * nrows), squeeze=False)
-        lim = max(r["extent_m"] for r in shapes) / 2 * 1.05
-        for ax, r in zip(axes.ravel(), shapes):
-            plot_outline(from_dict({"shape": r["shape"], **r["params"]}), ax)
-            ax.set_xlim(-lim, lim)
-            ax.set_ylim(-lim, lim)
-            ax.set_title(f"{r['name']}\n{r['metal_area_m2']:.0f} m$^2$, {r['lst_averaged_fom_mk']:.0f} mK", fontsize=8)
-            ax.set_xlabel("")
-            ax.set_ylabel("")
-        for ax in axes.ravel()[n:]:
-            ax.axis("off")
-        fig.tight_layout()
-        figs["outlines"] = out / "outlines.png"
-        save_figure(fig, figs["outlines"], dpi=100)
-        plt.close(fig)
-    fig, ax = plt.subplots(figsize=(9, 4.5))
+        figs["outlines"] = _outlines_figure(shapes, out / "outlines.png")
+    figs["fom_vs_lst"] = _fom_vs_lst_figure(ok, out / "fom_vs_lst.png")
+    figs["residuals"] = _residuals_figure(ok, out / "residuals.png")
+    with_area = [r for r in ok if r.get("metal_area_m2") is not None]
+    if with_area:
+        figs["fom_vs_area"] = _fom_vs_area_figure(with_area, out / "fom_vs_area.png")
+    return figs
+
+
+def _saved(fig, path: Path) -> Path:
+    fig.tight_layout()
+    save_figure(fig, path, dpi=100)
+    pyplot().close(fig)
+    return path
+
+
+def _outlines_figure(shapes: list[dict[str, Any]], path: Path) -> Path:
+    """Every candidate's outline on one scale, titled with its metal and FoM."""
+    from groundplane.cad import plot_outline
+
+    n = len(shapes)
+    cols = min(n, 4)
+    nrows = int(np.ceil(n / cols))
+    fig, axes = pyplot().subplots(nrows, cols, figsize=(3.2 * cols, 3.2 * nrows), squeeze=False)
+    lim = max(r["extent_m"] for r in shapes) / 2 * 1.05
+    for ax, r in zip(axes.ravel(), shapes):
+        plot_outline(from_dict({"shape": r["shape"], **r["params"]}), ax)
+        ax.set_xlim(-lim, lim)
+        ax.set_ylim(-lim, lim)
+        ax.set_title(f"{r['name']}\n{r['metal_area_m2']:.0f} m$^2$, {r['lst_averaged_fom_mk']:.0f} mK", fontsize=8)
+        ax.set_xlabel("")
+        ax.set_ylabel("")
+    for ax in axes.ravel()[n:]:
+        ax.axis("off")
+    return _saved(fig, path)
+
+
+def _fom_vs_lst_figure(ok: list[dict[str, Any]], path: Path) -> Path:
+    fig, ax = pyplot().subplots(figsize=(9, 4.5))
     for r in ok:
         if r.get("fom_mk") is not None:
             ax.plot(r["lst_hours"], r["fom_mk"], label=f"{r['name']} ({r['lst_averaged_fom_mk']:.0f} mK)")
@@ -232,11 +249,11 @@ def _figures(ok: list[dict[str, Any]], out: Path) -> dict[str, Path]:
     ax.set_xlim(0, 24)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
-    fig.tight_layout()
-    figs["fom_vs_lst"] = out / "fom_vs_lst.png"
-    save_figure(fig, figs["fom_vs_lst"], dpi=100)
-    plt.close(fig)
-    fig, axes = plt.subplots(2, 2, figsize=(10, 6), sharex=True)
+    return _saved(fig, path)
+
+
+def _residuals_figure(ok: list[dict[str, Any]], path: Path) -> Path:
+    fig, axes = pyplot().subplots(2, 2, figsize=(10, 6), sharex=True)
     for ax, h in zip(axes.ravel(), RESIDUAL_LSTS_H):
         for r in ok:
             res = r.get("residuals_mk", {}).get(f"{h:g}")
@@ -249,25 +266,19 @@ def _figures(ok: list[dict[str, Any]], out: Path) -> dict[str, Path]:
     axes[1, 1].set_xlabel("frequency (MHz)")
     if axes[0, 0].get_legend_handles_labels()[0]:  # rows without stored residuals draw nothing
         axes[0, 0].legend(fontsize=6)
-    fig.tight_layout()
-    figs["residuals"] = out / "residuals.png"
-    save_figure(fig, figs["residuals"], dpi=100)
-    plt.close(fig)
-    with_area = [r for r in ok if r.get("metal_area_m2") is not None]
-    if with_area:
-        fig, ax = plt.subplots(figsize=(6, 4.5))
-        for shape in sorted({r["shape"] for r in with_area}):
-            sel = [r for r in with_area if r["shape"] == shape]
-            ax.scatter([r["metal_area_m2"] for r in sel], [r["lst_averaged_fom_mk"] for r in sel], label=shape)
-            for r in sel:
-                ax.annotate(r["name"], (r["metal_area_m2"], r["lst_averaged_fom_mk"]), fontsize=6,
-                            xytext=(3, 3), textcoords="offset points")
-        ax.set_xlabel("metal area (m$^2$)")
-        ax.set_ylabel("LST-averaged FoM (mK)")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-        fig.tight_layout()
-        figs["fom_vs_area"] = out / "fom_vs_area.png"
-        save_figure(fig, figs["fom_vs_area"], dpi=100)
-        plt.close(fig)
-    return figs
+    return _saved(fig, path)
+
+
+def _fom_vs_area_figure(with_area: list[dict[str, Any]], path: Path) -> Path:
+    fig, ax = pyplot().subplots(figsize=(6, 4.5))
+    for shape in sorted({r["shape"] for r in with_area}):
+        sel = [r for r in with_area if r["shape"] == shape]
+        ax.scatter([r["metal_area_m2"] for r in sel], [r["lst_averaged_fom_mk"] for r in sel], label=shape)
+        for r in sel:
+            ax.annotate(r["name"], (r["metal_area_m2"], r["lst_averaged_fom_mk"]), fontsize=6,
+                        xytext=(3, 3), textcoords="offset points")
+    ax.set_xlabel("metal area (m$^2$)")
+    ax.set_ylabel("LST-averaged FoM (mK)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return _saved(fig, path)

@@ -265,14 +265,8 @@ REFINE_STARTS = 3  # local refinements, from the best distinct designs found so 
 
 
 def optimise(
-    shape: str,
-    max_area: float,
-    settings: EvalSettings,
-    out_dir: str | Path,
-    *,
-    algorithm: str = "LN_COBYLA",
-    budget: int = 30,
-    integer_values: tuple[int, ...] | None = None,
+    shape: str, max_area: float, settings: EvalSettings, out_dir: str | Path, *,
+    algorithm: str = "LN_COBYLA", budget: int = 30, integer_values: tuple[int, ...] | None = None,
     evaluate_fn: Callable[[Candidate, EvalSettings], dict[str, Any]] | None = None,
     progress: bool = True,
     confirm_mesh: float | None = None,
@@ -314,14 +308,8 @@ def optimise(
     _check_request(max_area, algorithm, budget, strategy, fam, ints, seeds)
     settings.check_scorable()
     constraints = constraints or NO_CONSTRAINTS
-    if scenarios is not None and scenarios.name != "nominal" and executor != "local":
-        raise UserInputError("--executor dask presolves one beam per design; a search over a scenario set runs "
-                             "locally (its members of one model are solved together)")
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    objective = _objective(objective, scenarios, constraints)
-    extra = {**({"strategy": strategy} if strategy != "local" else {}), **({"objective": objective} if objective else {})}
-    same_search(out, {"shape": shape, "max_area": max_area, "settings": settings.identity(), **extra})
+    out = _open_search(out_dir, shape, max_area, settings, strategy, executor,
+                       _objective(objective, scenarios, constraints), scenarios)
     ev = _Evaluator(fam, shape, max_area, settings, History(out / "history.jsonl"),
                     evaluate_fn or _default_evaluate(scenarios, constraints, progress), progress, budget=budget,
                     constraints=constraints)
@@ -330,17 +318,38 @@ def optimise(
     else:
         _local_search(fam, ints, ev, algorithm)
     stopping = _until_flat(fam, ev, algorithm, max(budget, max_budget or budget))
+    fine = (confirm_settings or settings.with_spacing(confirm_mesh)) if (confirm_mesh or confirm_settings) else None
+    best, confirmed = _answer(ev, fine, out, confirm_top, progress)
+    return OptimiseResult(best, ev.hist.rows, out, confirmed, None if best else ev.closest(), stopping)
+
+
+def _open_search(out_dir: str | Path, shape: str, max_area: float, settings: EvalSettings, strategy: str,
+                 executor: str, objective: dict[str, Any] | None, scenarios) -> Path:
+    """The search's folder, refused when it holds another search (a resume must ask the same)."""
+    if scenarios is not None and scenarios.name != "nominal" and executor != "local":
+        raise UserInputError("--executor dask presolves one beam per design; a search over a scenario set runs "
+                             "locally (its members of one model are solved together)")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    extra = {**({"strategy": strategy} if strategy != "local" else {}), **({"objective": objective} if objective else {})}
+    same_search(out, {"shape": shape, "max_area": max_area, "settings": settings.identity(), **extra})
+    return out
+
+
+def _answer(ev: "_Evaluator", fine: EvalSettings | None, out: Path, confirm_top: int,
+            progress: bool) -> tuple[dict[str, Any] | None, list[dict[str, Any]]]:
+    """The best feasible design (the best of the top ``confirm_top`` re-solved with ``fine``,
+    when given), written to ``best.json``; and those confirmations."""
     best = ev.best()
     confirmed: list[dict[str, Any]] = []
-    if best is not None and (confirm_mesh or confirm_settings):
-        fine = confirm_settings or settings.with_spacing(confirm_mesh)  # type: ignore[arg-type]
+    if best is not None and fine is not None:
         confirmed = _confirm(ev, fine, out, confirm_top, progress)
         held = [r for r in confirmed if r["status"] == "ok" and r.get("feasible", True)]
         if held:
             best = min(held, key=lambda r: r["fom_mk"])
     with atomic_path(out / "best.json", suffix=".tmp.json") as tmp:
         tmp.write_text(json.dumps(best, indent=1))
-    return OptimiseResult(best, ev.hist.rows, out, confirmed, None if best else ev.closest(), stopping)
+    return best, confirmed
 
 
 def _objective(objective: dict[str, Any] | None, scenarios, constraints) -> dict[str, Any] | None:

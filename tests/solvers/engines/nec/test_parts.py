@@ -1,4 +1,4 @@
-"""The antenna's parts as the NEC engine builds them (solvers/engines/nec/parts.py) are the
+"""The antenna's parts as the NEC engine builds them (solvers/engines/nec/mesh.py, add_parts) are the
 structures they say they are."""
 from collections import Counter
 from dataclasses import replace
@@ -7,8 +7,7 @@ import numpy as np
 
 from groundplane.antenna import AntennaParts
 from groundplane.design import Design, InfinitePEC
-from solvers.engines.nec.mesh import NecSettings, build_model, pec_reference_model
-from solvers.engines.nec.parts import PART_CELL
+from solvers.engines.nec.mesh import PART_CELL, NecSettings, build_model, pec_reference_model
 
 PEC = Design(None, InfinitePEC())
 
