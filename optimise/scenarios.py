@@ -453,8 +453,6 @@ def _solve_members(jobs, progress: bool) -> dict[int, tuple[Any, float] | str]:
     """Each member's (beam, seconds), or its error: members of one model solved together."""
     import time
 
-    from solvers.engines import solve_all
-
     from .evaluate import candidate_beam
 
     out: dict[int, tuple[Any, float] | str] = {}
@@ -472,7 +470,7 @@ def _solve_members(jobs, progress: bool) -> dict[int, tuple[Any, float] | str]:
         s = jobs[members[0]][1]
         t0 = time.perf_counter()
         try:
-            beams = solve_all(s.make_solver(progress), [Design(jobs[i][2].plane, jobs[i][1].soil) for i in members],
+            beams = s.make_solver(progress).solve_many([Design(jobs[i][2].plane, jobs[i][1].soil) for i in members],
                               s.freqs_mhz)
         except KeyboardInterrupt:
             raise

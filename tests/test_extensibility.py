@@ -1,7 +1,6 @@
 """The layered design's promise: a shape family, a beam format and a solver engine are
 each added from outside the package (here, this test file alone) and every command picks
 them up: shapes, export, sweep, optimise, fom and the design-study reproduction."""
-import hashlib
 import json
 from dataclasses import asdict, dataclass, replace
 
@@ -12,7 +11,7 @@ from groundplane.beam import Beam
 from groundplane.cli import main
 from groundplane.options import option
 from groundplane.shapes import SHAPES, GroundPlane, param
-from solvers.engines import ENGINES, register_engine
+from solvers.engines import ENGINES, Plan, Solver, register_engine
 from solvers.engines.base import SolveSettings
 from solvers.io import FORMATS, BeamFormat, register_format
 
@@ -47,39 +46,35 @@ class StandInSettings:
         return asdict(self)
 
 
+def stand_in_gain(model: tuple[float, float], freq: float) -> tuple[np.ndarray, dict[str, float]]:
+    """The stand-in's physics (in a worker process): a 2 cos^2 beam whose ripple in frequency
+    falls with metal area; ``model`` is (metal area, ripple of a 100 m^2 plate)."""
+    area_m2, ripple = model
+    amp = ripple * 100.0 / area_m2
+    th = np.arange(91.0)
+    g = 2 * np.cos(np.radians(th)) ** 2 * (1 + amp * np.sin(freq / 3))
+    return np.repeat(g[:, None], 91, axis=1), {}
+
+
 @pytest.fixture
 def stand_in_engine():
-    """A solver that honours the protocol without NEC: chromaticity falls with metal area."""
+    """A second engine writes only its physics: a Solver subclass with its identity and its
+    plan (the base caches, resumes and runs the workers). Chromaticity falls with metal area."""
 
     @register_engine
-    class StandIn:
+    class StandIn(Solver):
         name = "stand-in"
         settings_class = StandInSettings
+        grounds = ("soil", "pec")
         solved: list = []
 
-        def __init__(self, settings=None, *, workers=2, progress=False, use_cache=True):
-            self.settings = settings or StandInSettings()
+        def engine_identity(self):
+            return {"engine": "stand-in", "version": "1"}
 
-        def cache_key(self, design, freqs_mhz):
-            blob = design.canonical() + json.dumps([float(f) for f in freqs_mhz]) + json.dumps(self.settings.as_dict())
-            return hashlib.sha256(blob.encode()).hexdigest()[:32]
-
-        def cached(self, design, freqs_mhz=()):
-            return None
-
-        def why_unresolved(self, plane):
-            return None
-
-        def solve(self, design, freqs_mhz=np.arange(40.0, 101.0)):
-            f = np.asarray(list(freqs_mhz), dtype=float)
-            area = design.plane.metal_area if design.plane is not None else 1e4
-            amp = self.settings.ripple * 100.0 / area
-            th, ph = np.arange(91.0), np.arange(360.0)
-            g = 2 * np.cos(np.radians(th))[None, :, None] ** 2 * (1 + amp * np.sin(f / 3))[:, None, None]
+        def plan(self, design):
             StandIn.solved.append(design.label())
-            return Beam(f, th, ph, np.repeat(g, ph.size, axis=2),
-                        {"source": f"stand-in {design.label()}", "n_segments": 0,
-                         "seconds_per_frequency": [0.0] * f.size, "cache_key": self.cache_key(design, f)})
+            area = design.plane.metal_area if design.plane is not None else 1e4
+            return Plan(stand_in_gain, (area, self.settings.ripple), 91, {"n_segments": 0}, f"stand-in {design.label()}")
 
     yield StandIn
     ENGINES.pop("stand-in")

@@ -1,16 +1,19 @@
-"""What every engine shares: the :class:`Solver` protocol, the engine registry, and
-:class:`FrequencySolver`, the cached, resumable, one-process-per-frequency loop an engine
-plugs its model into (so a second engine writes only its physics)."""
+"""What every engine shares: :class:`Solver`, the abstract engine (in the scikit-rf ``Media``
+style: an engine declares what it is and what it can do, and implements two members, its
+identity and its model of a design; the base builds the rest: the cached, resumable,
+one-process-per-frequency solve, designs solved together, the checks), and the registry."""
 from __future__ import annotations
 
 import hashlib
 import json
 import sys
 import time
+from abc import ABC, abstractmethod
+from collections.abc import Mapping
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import nullcontext
 from dataclasses import dataclass, field
-from typing import Any, Callable, ClassVar, Iterable, Protocol, runtime_checkable
+from typing import Any, Callable, ClassVar, Iterable, Iterator
 
 import numpy as np
 
@@ -42,33 +45,16 @@ class SolveSettings:
         _freqs(self.freqs_mhz)
 
 
-@runtime_checkable
-class Solver(Protocol):
-    """An EM engine as the rest of the toolkit sees it."""
-
-    name: ClassVar[str]
-    settings_class: ClassVar[type]
-    settings: Any
-
-    def cache_key(self, design: Design, freqs_mhz: Iterable[float]) -> str: ...
-
-    def cached(self, design: Design, freqs_mhz: Iterable[float] = DEFAULT_FREQS_MHZ) -> Beam | None: ...
-
-    def solve(self, design: Design, freqs_mhz: Iterable[float] = DEFAULT_FREQS_MHZ) -> Beam: ...
-
-    def why_unresolved(self, plane: Any) -> str | None:
-        """Why the engine's model would not be ``plane`` as drawn (None when it is)."""
-        ...
-
-
-class EngineRegistry(dict):
+class EngineRegistry(Mapping):
     """Registered engines by name. Each engine sub-package registers its solver class when
     imported; the registry imports them on first read, so a command that never solves
     (``groundplane fom``) never imports an engine's physics (scipy.spatial, PyNEC...)."""
 
-    _loaded = False
+    def __init__(self) -> None:
+        self._engines: dict[str, type] = {}
+        self._loaded = False
 
-    def load(self) -> None:
+    def _load(self) -> None:
         if not self._loaded:
             self._loaded = True
             import importlib
@@ -80,36 +66,23 @@ class EngineRegistry(dict):
                     importlib.import_module(f"{package.__name__}.{m.name}")
 
     def __getitem__(self, name: str) -> type:
-        self.load()
-        return super().__getitem__(name)
+        self._load()
+        return self._engines[name]
 
-    def __contains__(self, name: object) -> bool:
-        self.load()
-        return super().__contains__(name)
-
-    def __iter__(self):
-        self.load()
-        return super().__iter__()
+    def __iter__(self) -> Iterator[str]:
+        self._load()
+        return iter(self._engines)
 
     def __len__(self) -> int:
-        self.load()
-        return super().__len__()
+        self._load()
+        return len(self._engines)
 
-    def keys(self):
-        self.load()
-        return super().keys()
+    def add(self, cls: type) -> None:
+        self._engines[cls.name] = cls
 
-    def items(self):
-        self.load()
-        return super().items()
-
-    def values(self):
-        self.load()
-        return super().values()
-
-    def get(self, name: str, default: Any = None) -> Any:
-        self.load()
-        return super().get(name, default)
+    def pop(self, name: str) -> type:
+        """Unregister an engine (a plug-in's test cleans up after itself)."""
+        return self._engines.pop(name)
 
 
 ENGINES: EngineRegistry = EngineRegistry()
@@ -117,23 +90,20 @@ ENGINES: EngineRegistry = EngineRegistry()
 
 
 def register_engine(cls: type) -> type:
-    """Class decorator: make an engine available to every command that solves."""
-    for attr in ("name", "settings_class", "solve", "cache_key", "cached"):
-        if not hasattr(cls, attr):
-            raise TypeError(f"{cls.__name__}: an engine needs '{attr}' (see solvers.engines.base.Solver)")
-    ENGINES[cls.name] = cls
+    """Class decorator: make an engine (a concrete :class:`Solver` with a ``name`` and a
+    ``settings_class``) available to every command that solves."""
+    import inspect
+
+    if not (isinstance(cls, type) and issubclass(cls, Solver)) or inspect.isabstract(cls) or not cls.name:
+        missing = sorted(getattr(cls, "__abstractmethods__", ())) if isinstance(cls, type) else []
+        raise TypeError(f"{getattr(cls, '__name__', cls)}: an engine is a subclass of solvers.engines.base.Solver "
+                        "with a name, a settings_class, engine_identity() and plan()"
+                        + (f" (missing: {', '.join(missing)})" if missing else ""))
+    ENGINES.add(cls)
     return cls
 
 
-def solve_all(solver: Solver, designs: list[Design], freqs_mhz: Iterable[float]) -> list[Beam]:
-    """The beams of several designs: the engine's ``solve_many`` (which shares work between
-    designs it can solve together), or one ``solve`` each for an engine without one."""
-    if hasattr(solver, "solve_many"):
-        return solver.solve_many(designs, freqs_mhz)
-    return [solver.solve(d, freqs_mhz) for d in designs]
-
-
-def make_solver(engine: str, settings: Any = None, **runtime: Any) -> Solver:
+def make_solver(engine: str, settings: Any = None, **runtime: Any) -> "Solver":
     """An engine by name, with its settings (None: the engine's defaults)."""
     if engine not in ENGINES:
         raise SettingsError(f"unknown engine '{engine}'; choose one of {', '.join(ENGINES)}")
@@ -164,15 +134,20 @@ def _timed(args: tuple) -> tuple[float, Any, float]:
     return freq, out, time.perf_counter() - t0
 
 
-class FrequencySolver:
-    """The solve loop shared by engines: cache by content, resume per frequency, one
-    worker process per frequency. Subclasses define ``name``, ``settings_class``,
-    ``model_version``, ``engine_identity()``, ``check(design)`` and ``plan(design)``."""
+class Solver(ABC):
+    """An EM engine as the rest of the toolkit sees it. A subclass declares ``name``,
+    ``settings_class`` (its model's options), ``model_version`` and its capabilities
+    (``grounds``: what it can put under a design; ``antenna_parts``: whether it models the
+    antenna's extra parts), and implements :meth:`engine_identity` and :meth:`plan`; it may
+    refine :meth:`check`, :meth:`share_key` / :meth:`plan_group` (designs solved together) and
+    the report hooks. Everything else (the cache by content, resuming per frequency, one worker
+    process per frequency, several designs at once) is this class's."""
 
     name: ClassVar[str] = ""
     settings_class: ClassVar[type] = object
     model_version: ClassVar[int] = 1
     grounds: ClassVar[tuple[str, ...]] = ("soil", "pec")  # what the engine can put under a design
+    antenna_parts: ClassVar[bool] = False  # models groundplane.antenna.AntennaParts (balun, top plate, ...)
 
     def __init__(self, settings: Any = None, *, workers: int = 2, progress: bool = False,
                  use_cache: bool = True) -> None:
@@ -188,8 +163,10 @@ class FrequencySolver:
         return core_capped(self.workers)
 
     # --------------------------------------------------------------- engine hooks
-    def engine_identity(self) -> dict[str, str]:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @abstractmethod
+    def engine_identity(self) -> dict[str, str]:
+        """What computed the beams besides the model (engine, its version, what it links):
+        part of every cache key."""
 
     #: the engine and its plate model in words, for reports
     title: ClassVar[str] = ""
@@ -215,10 +192,35 @@ class FrequencySolver:
         return None
 
     def check(self, design: Design) -> None:
-        """Refuse a design or engine this solver cannot do right (before any work)."""
+        """Refuse a design this solver cannot do right, before any work: a ground or antenna
+        parts outside its declared capabilities (engines add their own checks)."""
+        if design.ground_kind not in self.grounds:
+            raise SettingsError(f"{design.label()}: the {self.name} engine cannot solve over {design.ground_kind!r} "
+                                f"ground (it solves over {', '.join(self.grounds)})")
+        if design.antenna.parts is not None and not self.antenna_parts:
+            raise SettingsError(f"{design.label()}: the {self.name} engine models the bare blade; antenna parts "
+                                f"({design.antenna.parts.label()}) need an engine that models them (--engine nec)")
 
-    def plan(self, design: Design) -> Plan:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @abstractmethod
+    def plan(self, design: Design) -> Plan:
+        """The engine's model of ``design``, ready to solve frequency by frequency."""
+
+    @staticmethod
+    def quadrant(design: Design) -> bool:
+        """Whether one azimuth quadrant is solved and mirrored (the blade alone, or a plane
+        symmetric about both axes) rather than the full circle."""
+        return design.plane is None or all(design.plane.mirror_symmetry.values())
+
+    @staticmethod
+    def meshed(design: Design, build: Callable[[], Any]) -> Any:
+        """``build()`` (an engine's meshing of ``design``), any failure of the geometry
+        libraries (triangle, shapely) named with the candidate it happened to."""
+        try:
+            return build()
+        except (SolveError, SettingsError):
+            raise
+        except Exception as exc:
+            raise SolveError(f"{design.label()}: could not mesh the model ({exc})") from exc
 
     def share_key(self, design: Design) -> str | None:
         """Designs with one share key (not None) are solved together by :meth:`solve_many`, every

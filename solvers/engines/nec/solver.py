@@ -30,10 +30,10 @@ from typing import ClassVar
 import numpy as np
 
 from groundplane.design import Design, InfinitePEC
-from groundplane.errors import SettingsError, SolveError
+from groundplane.errors import SettingsError
 from groundplane.sky import cache_dir
 
-from ..base import FrequencySolver, Plan, register_engine
+from ..base import Plan, Solver, register_engine
 from ..workers import available_memory_bytes
 from . import engine
 from .mesh import NecModel, NecSettings, build_model, estimated_segments, pec_reference_model
@@ -63,12 +63,15 @@ def check_memory(n_segments: int, sections: int, processes: int, label: str, est
 
 
 @register_engine
-class NecSolver(FrequencySolver):
-    """Solve designs with NEC-2 (pynec-accel); results cached by content."""
+class NecSolver(Solver):
+    """Solve designs with NEC-2 (pynec-accel) over soil, PEC or in free space; the antenna's
+    extra parts as wire grids too. Results cached by content."""
 
     name: ClassVar[str] = "nec"
     settings_class: ClassVar[type] = NecSettings
     model_version: ClassVar[int] = MODEL_VERSION
+    grounds: ClassVar[tuple[str, ...]] = ("soil", "pec", "free")
+    antenna_parts: ClassVar[bool] = True
 
     def engine_identity(self) -> dict[str, str]:
         return engine.engine_info()
@@ -94,22 +97,16 @@ class NecSolver(FrequencySolver):
         return None
 
     def check(self, design: Design) -> None:
-        ground = design.ground_kind
-        engine.check_engine(ground, in_process=self.workers == 0)
+        super().check(design)
+        engine.check_engine(design.ground_kind, in_process=self.workers == 0)
 
     def plan(self, design: Design) -> Plan:
         if design.plane is not None:  # a mesh far too fine is refused before it is built (that alone can take hours)
             check_memory(estimated_segments(design.plane, self.settings.spacing), 2, self.processes, design.label(),
                          estimated=True)  # 2: even with NEC's rotational symmetry
-        try:
-            model = build_model(design, self.settings)
-        except (SolveError, SettingsError):
-            raise
-        except Exception as exc:  # shapely/geometry trouble: name the candidate
-            raise SolveError(f"{design.label()}: could not mesh the model ({exc})") from exc
+        model = self.meshed(design, lambda: build_model(design, self.settings))
         check_memory(model.n_segments, model.sections, self.processes, design.label())
-        symmetric = design.plane is None or all(design.plane.mirror_symmetry.values())
-        n_phi = 91 if symmetric else 360
+        n_phi = 91 if self.quadrant(design) else 360
         job = engine.NecJob(model, n_phi, self.settings.far_field_step)
         if self.settings.gain_calibration == "pec":
             if design.plane is None and isinstance(design.ground, InfinitePEC):  # the blade over PEC itself

@@ -1,4 +1,4 @@
-"""The surface engine as a :class:`~solvers.engines.base.FrequencySolver`: a design meshed
+"""The surface engine as a :class:`~solvers.engines.base.Solver`: a design meshed
 into triangles (``mesh.py``), solved by the RWG EFIE over infinite PEC ground, over soil
 (Sommerfeld half-space, ``halfspace.py``) or in free space (``rwg.py``), one frequency per
 worker process, with the same content-keyed, per-frequency resumable cache as NEC. No gain
@@ -17,7 +17,7 @@ import numpy as np
 from groundplane.design import Design, Soil
 from groundplane.errors import SettingsError, SolveError
 
-from ..base import FrequencySolver, Plan, register_engine
+from ..base import Plan, Solver, register_engine
 from ..patterns import to_one_degree, upper_mean_gain
 from ..workers import available_memory_bytes
 from .mesh import SurfaceSettings, build_mesh
@@ -126,7 +126,7 @@ def solve_soils(payload: tuple, freq_mhz: float) -> list[tuple[np.ndarray, dict[
 
 
 @register_engine
-class SurfaceSolver(FrequencySolver):
+class SurfaceSolver(Solver):
     """Solve designs over infinite PEC ground, soil or in free space with the surface-current
     (RWG) engine."""
 
@@ -144,14 +144,6 @@ class SurfaceSolver(FrequencySolver):
             except metadata.PackageNotFoundError:
                 deps[dist] = "?"
         return {"engine": "groundplane-rwg", "version": str(MODEL_VERSION), **deps}
-
-    def check(self, design: Design) -> None:
-        if design.antenna.parts is not None:
-            raise SettingsError(f"{design.label()}: the surface engine models the bare blade; antenna parts "
-                                f"({design.antenna.parts.label()}) need --engine nec")
-        if design.ground_kind not in self.grounds:
-            raise SettingsError(f"{design.label()}: the surface engine cannot solve over {design.ground_kind!r} "
-                                f"ground (it solves over {', '.join(self.grounds)})")
 
     def share_key(self, design: Design) -> str | None:
         """A fast solve over soil shares everything but the soil's values with the same design
@@ -191,14 +183,9 @@ class SurfaceSolver(FrequencySolver):
 
     def plan(self, design: Design) -> Plan:
         self.precheck(design)
-        try:
-            mesh: TriMesh = build_mesh(design, self.settings)
-            rwg = rwg_basis(mesh)
-        except (SolveError, SettingsError):
-            raise
-        except Exception as exc:  # triangle/shapely trouble: name the candidate
-            raise SolveError(f"{design.label()}: could not mesh the model ({exc})") from exc
-        symmetric = design.plane is None or all(design.plane.mirror_symmetry.values())
+        mesh: TriMesh = self.meshed(design, lambda: build_mesh(design, self.settings))
+        rwg = self.meshed(design, lambda: rwg_basis(mesh))
+        symmetric = self.quadrant(design)
         n_phi = 91 if symmetric else 360
         symmetry = MirrorSymmetry.of(mesh, rwg) if symmetric else None  # as each worker will find it
         if self.settings.method == "dense":

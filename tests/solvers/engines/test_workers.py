@@ -14,7 +14,7 @@ import pytest
 from groundplane.design import Design, Soil
 from groundplane.errors import SolveError
 from groundplane.shapes import Square
-from solvers.engines.base import FrequencySolver, Plan
+from solvers.engines.base import Plan, Solver
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -75,7 +75,7 @@ def always_dies(payload: str, freq: float):
     os.kill(os.getpid(), signal.SIGKILL)
 
 
-class StandIn(FrequencySolver):
+class StandIn(Solver):
     name = "stand-in"
 
     def __init__(self, job, folder, **kw):
