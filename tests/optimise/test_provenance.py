@@ -19,7 +19,11 @@ def test_write_md_then_check_current_stale_and_unknown(tmp_path, capsys):
     stale.write_text(prov.PREFIX + json.dumps({"models": old, "command": "groundplane study b"}) + prov.SUFFIX + "\n# B\n")
     (tmp_path / "c.md").write_text("# C\n\nCommand: `groundplane study c -o results`\n")
     (tmp_path / "answer.md").write_text("hand-written\n")  # never checked: interpretation, not output
+    (tmp_path / "c_runs").mkdir()
+    (tmp_path / "c_runs" / "report.md").write_text("# the study's sweep table, with no command of its own\n")
     rows = {r["path"].split("/")[-1]: r for r in prov.check(tmp_path)}
+    assert rows.pop("report.md")["command"] == "groundplane study c -o results"  # its study's command
+    (tmp_path / "c_runs" / "report.md").unlink()
     assert set(rows) == {"a.md", "b.md", "c.md"}
     assert rows["a.md"]["status"] == "current"
     assert rows["b.md"]["status"] == "stale" and "surface v" in rows["b.md"]["why"]
