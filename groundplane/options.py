@@ -11,7 +11,7 @@ import argparse
 import dataclasses
 import math
 import typing
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from typing import Any, Callable, Mapping
 
 import numpy as np
@@ -101,6 +101,7 @@ def add_options(parser: argparse.ArgumentParser, cls: type, title: str | None = 
     """Add the dataclass's options to ``parser`` (in a group titled ``title``)."""
     g = parser.add_argument_group(title) if title else parser
     for o in options(cls):
+        o = replace(o, help=o.help.replace("%", "%%"))  # argparse formats help with %: a literal % is %%
         shared = parser._option_string_actions.get(o.flag)
         if shared is not None:  # shared by two engines' settings: one flag, each one's default said
             if f"(default {_fmt(o.default)})" not in (shared.help or ""):

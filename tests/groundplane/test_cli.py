@@ -238,3 +238,19 @@ def test_every_command_that_takes_a_design_takes_a_design_file(tmp_path, capsys)
     assert "give one design" in capsys.readouterr().err
     assert main(["solve", "--design", str(tmp_path / "missing.json"), "-o", str(tmp_path / "b.npz")]) == 2
     assert "no such design file" in capsys.readouterr().err
+
+
+def test_every_command_prints_its_help(capsys):
+    """--help of every command, the higher layers' included (a literal % in an option's help
+    once made argparse trace back on optimise, score and sweep)."""
+    import argparse
+
+    from groundplane.cli import build_parser
+
+    sub = next(a for a in build_parser([])._actions if isinstance(a, argparse._SubParsersAction))
+    assert {"fom", "solve", "optimise", "score", "sweep", "study"} <= set(sub.choices)
+    for name in sub.choices:
+        with pytest.raises(SystemExit) as done:
+            main([name, "--help"])
+        assert done.value.code == 0, name
+        assert "usage:" in capsys.readouterr().out
