@@ -23,19 +23,11 @@ from typing import Any
 
 import numpy as np
 
+from .beam_meta import GAIN_NORMALISATIONS, check_meta, per_frequency_keys
 from .errors import BeamFormatError, GroundLossUndefined, UserInputError
 from .files import atomic_path
 
 __all__ = ["Beam", "BeamFormatError", "GAIN_NORMALISATIONS", "GroundLossUndefined", "READER_GROUP"]
-
-GAIN_NORMALISATIONS: dict[str, str] = {
-    "input_power": "4 pi U / P_in, the power the antenna takes in (a solver's 'Gain'; our engines' gain)",
-    "available_power": "4 pi U / P_available ('Realized Gain': the feed's mismatch counts as a loss too)",
-    "radiated_power": "4 pi U / P_rad (directivity: lossless by definition)",
-    "unknown": "the file does not say",
-}
-"""What ``Beam.gain`` is normalised to (``meta["gain_normalisation"]``). Only ``input_power``
-makes 1 - the upper hemisphere's share of the power a ground loss."""
 
 READER_GROUP = "groundplane.beam_readers"
 FORMATS_GROUP = "groundplane.beam_formats"  # a function listing the formats the reader reads
@@ -106,6 +98,7 @@ class Beam:
             )
         if np.any(g < 0):
             raise BeamFormatError(f"{src}: linear power gain must be >= 0")
+        check_meta(self.meta, f.size, src)  # each declared key as groundplane.beam_meta declares it
 
     # ------------------------------------------------------------------ views
     @property
@@ -242,6 +235,14 @@ class Beam:
         fit = np.polynomial.chebyshev.chebval(x, np.polynomial.chebyshev.chebfit(x, flat, degree)).T
         gain = np.clip(fit, 0.0, None).reshape(self.gain.shape)
         return Beam(self.freqs_mhz, self.theta_deg, self.phi_deg, gain, {**self.meta, "frequency_smoothed_degree": degree})
+
+    def at_frequencies(self, index: np.ndarray) -> "Beam":
+        """The beam at the frequencies ``index`` picks (increasing), with every per-frequency
+        metadata value (impedance, timings, ...) picked alike."""
+        index = np.asarray(index, dtype=int)
+        meta = {k: ([self.meta[k][i] for i in index] if k in per_frequency_keys(self.meta) else v)
+                for k, v in self.meta.items()}
+        return Beam(self.freqs_mhz[index], self.theta_deg, self.phi_deg, self.gain[index], meta)
 
     def with_meta(self, **extra: Any) -> "Beam":
         return Beam(self.freqs_mhz, self.theta_deg, self.phi_deg, self.gain, {**self.meta, **extra})

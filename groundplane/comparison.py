@@ -45,11 +45,8 @@ def _shared(values: Sequence[np.ndarray]) -> np.ndarray:
 def _take(beam: Beam, freqs: np.ndarray, theta: np.ndarray, phi: np.ndarray) -> Beam:
     pick = [np.flatnonzero(np.isin(np.round(have, GRID_DECIMALS), want))
             for have, want in ((beam.freqs_mhz, freqs), (beam.theta_deg, theta), (beam.phi_deg, phi))]
-    gain = beam.gain[np.ix_(*pick)]
-    n = beam.freqs_mhz.size  # per-frequency meta (impedance, timings) follows the frequencies kept
-    meta = {k: [v[i] for i in pick[0]] if isinstance(v, list) and len(v) == n and n > 1 else v
-            for k, v in beam.meta.items()}
-    return Beam(beam.freqs_mhz[pick[0]], beam.theta_deg[pick[1]], beam.phi_deg[pick[2]], gain, meta)
+    at = beam.at_frequencies(pick[0])  # per-frequency meta (impedance, timings) follows the frequencies kept
+    return Beam(at.freqs_mhz, at.theta_deg[pick[1]], at.phi_deg[pick[2]], at.gain[:, pick[1]][:, :, pick[2]], at.meta)
 
 
 def _describe(beam: Beam, label: str) -> str:

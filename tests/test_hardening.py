@@ -28,7 +28,8 @@ def example() -> Beam:
 def _variant(tmp_path, example, keep=None, scale=1.0, name="b.npz"):
     k = np.ones(example.freqs_mhz.size, bool) if keep is None else keep(example.freqs_mhz)
     path = tmp_path / name
-    Beam(example.freqs_mhz[k], example.theta_deg, example.phi_deg, example.gain[k] * scale, example.meta).save(path)
+    sub = example.at_frequencies(np.flatnonzero(k))
+    Beam(sub.freqs_mhz, sub.theta_deg, sub.phi_deg, sub.gain * scale, sub.meta).save(path)
     return str(path)
 
 
@@ -172,7 +173,9 @@ def test_memory_and_size_limits_come_before_any_work(argv, match, tmp_path, caps
     t0 = time.perf_counter()
     out = ["-o", str(tmp_path / ("x.step" if argv[0] == "export" else "x.npz" if argv[0] == "solve" else "fab"))]
     assert main([*argv, *out]) == 2
-    assert match in _err(capsys) and time.perf_counter() - t0 < 15
+    # refused before the work (which ran for minutes): 30 s leaves room for importing cadquery on a
+    # loaded machine (22.7 s measured with a search and a test run beside it)
+    assert match in _err(capsys) and time.perf_counter() - t0 < 30
 
 
 def test_a_200000_vertex_design_is_refused_at_once(tmp_path, capsys):
