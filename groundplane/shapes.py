@@ -783,6 +783,9 @@ def from_file(path: str | Path) -> GroundPlane:
     except RecursionError:
         raise ShapeError(f"{path}: not a design file (nested too deeply to be one)") from None
     if not isinstance(d, dict):
+        if d is None:  # an optimiser's best.json when nothing met the constraints
+            raise ShapeError(f"{path}: holds no design (null: the search found none that meets its constraints; "
+                             "the closest is its front's answer-<A>.json, where the pareto front wrote one)")
         raise ShapeError(f"{path}: not a design file (expected a JSON object with 'shape' or 'preset')")
     try:
         return _design_of(d, path)

@@ -473,7 +473,7 @@ def _snap_report(plane, snapped, moved: dict, settings: "EvalSettings", out: Pat
 
 @command("study", "run a study: the paper's reproductions (design-study, soil-sweep) and the model studies")
 def _setup_study(p: argparse.ArgumentParser):
-    from .studies import STUDIES
+    from .studies import STUDIES, study_options
 
     p.add_argument("name", nargs="?", choices=sorted(STUDIES),
                    help="; ".join(f"{k}: {s.help}" for k, s in sorted(STUDIES.items())))
@@ -481,19 +481,9 @@ def _setup_study(p: argparse.ArgumentParser):
                    help="list the reports under -o (default ./results) that an engine's model change has made stale, "
                         "with the command that regenerates each")
     p.add_argument("-o", "--out", default=None, help="output folder (default: ./<study name> in the working directory)")
-    p.add_argument("--compare-mesh", type=float, metavar="SPACING",
-                   help="design-study: also solve at this plate spacing and report how rows and conclusions move")
-    p.add_argument("--feko-dir", type=Path, help="feko-40mhz: folder of the four FEKO quadrant files")
-    p.add_argument("--cached-only", action="store_true",
-                   help="soil-surface: report the rows already solved and name the rest (an interim report)")
-    p.add_argument("--preset", dest="study_preset", metavar="NAME", help="tolerance: the design (default extended)")
-    p.add_argument("--design", dest="study_design", type=Path, metavar="FILE",
-                   help="tolerance: the design from a file instead of a preset (a shape JSON or an optimiser's "
-                        "best.json)")
-    p.add_argument("--draws", type=int, metavar="N", help="tolerance: Monte-Carlo draws per corner error (default 3)")
-    p.add_argument("--scenarios", dest="study_scenarios", metavar="SET|FILE",
-                   help="tolerance: score the design on this scenario set's members (soil, model, as-built, field or "
-                        "a TOML file) instead of the study's own as-built variants")
+    for flag, (o, names) in sorted(study_options().items()):  # each study's own flags, from its registry entry
+        kw = {"action": "store_true"} if o.switch else {"type": o.type, "metavar": o.metavar}
+        p.add_argument(flag, dest=f"study_{o.into}", default=None, help=f"{', '.join(names)}: {o.help}", **kw)
     add_eval_options(p)
     return _run_study_cmd
 
@@ -501,7 +491,7 @@ def _setup_study(p: argparse.ArgumentParser):
 def _run_study_cmd(args: argparse.Namespace) -> int:
     from groundplane.design import Soil
 
-    from .studies import STUDIES, run_study
+    from .studies import STUDIES, run_study, study_options
 
     if args.check:
         return _check_results(Path(args.out or "results"))
@@ -509,40 +499,15 @@ def _run_study_cmd(args: argparse.Namespace) -> int:
         raise CLIError("name a study (or --check the committed results)")
     s = STUDIES[args.name]
     extra = {}
-    if args.compare_mesh is not None:
-        if args.name != "design-study":
-            raise CLIError("--compare-mesh is for design-study")
-        extra["compare_mesh"] = args.compare_mesh
-    if args.feko_dir is not None:
-        if args.name != "feko-40mhz":
-            raise CLIError("--feko-dir is for feko-40mhz")
-        extra["feko_dir"] = args.feko_dir
-    if args.cached_only:
-        if args.name != "soil-surface":
-            raise CLIError("--cached-only is for soil-surface")
-        extra["cached_only"] = True
-    for key, flag, into in (("study_preset", "--preset", "preset_name"), ("study_design", "--design", "design"),
-                            ("draws", "--draws", "draws"), ("study_scenarios", "--scenarios", "scenarios")):
-        if getattr(args, key) is not None:
-            if args.name != "tolerance":
-                raise CLIError(f"{flag} is for tolerance")
-            extra[into] = getattr(args, key)
-    if extra.get("preset_name") is not None:
-        from groundplane.shapes import preset
-
-        preset(extra["preset_name"])  # an unknown name is refused here, before any solve
-        if extra.get("design") is not None:
-            raise CLIError("tolerance: give --preset or --design, not both")
-    if extra.get("design") is not None:
-        from groundplane.shapes import from_file
-
-        from_file(extra["design"])  # a bad design file is refused here, before any solve
-    if extra.get("draws") is not None and extra["draws"] < 1:
-        raise CLIError("--draws must be >= 1")
-    if extra.get("scenarios") is not None:
-        from .scenarios import scenario_set
-
-        extra["scenarios"] = scenario_set(extra["scenarios"])  # an unknown set or a bad file: refused here
+    for flag, (o, names) in study_options().items():
+        value = getattr(args, f"study_{o.into}")
+        if value is None or value is False:
+            continue
+        if args.name not in names:
+            raise CLIError(f"{flag} is for {', '.join(names)}")
+        extra[o.into] = o.check(value) if o.check else value  # refused here, before any solve
+    if s.validate is not None:
+        s.validate(extra)
     settings = None
     if s.uses_settings:
         settings = eval_settings(args)

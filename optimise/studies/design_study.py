@@ -16,7 +16,7 @@ from ..evaluate import (
 from ..provenance import write_md
 from ..report import write_report
 from ..sweep import run_sweep
-from . import study
+from . import StudyOption, study
 from ._common import write_csv
 
 DESIGN_STUDY = list(paper.TABLE3_FOM_MK.items())  # (preset, paper FoM mK), in the table's order
@@ -42,7 +42,8 @@ def _known_differences(settings: EvalSettings) -> list[str]:
 
 
 @study("design-study", "the paper's Table 3: nine ground planes, their FoM and conclusions (i)-(iii)",
-       uses_settings=True)
+       uses_settings=True, options=(StudyOption("--compare-mesh", "compare_mesh", "also solve at this plate spacing "
+                                                "and report how rows and conclusions move", float, "SPACING"),))
 def _run(out: Path, settings: EvalSettings, command: str, compare_mesh: float | None = None) -> None:
     compare = None if compare_mesh is None else settings.with_spacing(compare_mesh)
     for t in design_study(settings, out, command, progress=True, compare=compare):

@@ -16,7 +16,7 @@ from solvers.engines import make_solver
 from solvers.engines.nec import NecSettings
 
 from ..provenance import write_md
-from . import study
+from . import StudyOption, study
 from ._common import engine_settings
 
 FEKO_DIR = Path("../shared/data/beams")  # optional data beside a checkout; --feko-dir elsewhere
@@ -152,6 +152,7 @@ def _reading(rows: list, diffs: dict[str, tuple[float, float]]) -> list[str]:
 
 
 @study("feko-40mhz", "our beams (NEC grid, surface sheet) vs the FEKO low-band export at 40 MHz (needs the FEKO "
-       "files; --feko-dir)")
+       "files; --feko-dir)", options=(StudyOption("--feko-dir", "feko_dir", "folder of the four FEKO quadrant files",
+                                                  Path, "DIR"),))
 def _run(out: Path, settings, command: str, **extra) -> None:
     feko_40mhz(out, command, **extra)

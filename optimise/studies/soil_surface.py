@@ -37,7 +37,7 @@ from solvers.engines.nec import NecSettings
 from solvers.engines.surface import SurfaceSettings
 
 from ..provenance import write_md
-from . import study
+from . import StudyOption, study
 from ._common import efficiency, engine_settings, machine, verdict, write_csv
 
 FIT_BAND = np.array(parse_freqs("fit-band"))  # all the FoM uses: every model here is scored on these 43 frequencies
@@ -414,6 +414,8 @@ def _plot(done: list[tuple[Row, Beam, dict, FomResult]], path: Path) -> None:
 
 
 @study("soil-surface", "the plate on soil as a solid sheet (surface engine, Sommerfeld ground) vs NEC-2's wire "
-       "grid and the paper: plate height, mesh, conclusion (i) rows")
+       "grid and the paper: plate height, mesh, conclusion (i) rows",
+       options=(StudyOption("--cached-only", "cached_only", "report the rows already solved and name the rest (an "
+                            "interim report)", switch=True),))
 def _run(out: Path, settings, command: str, **extra) -> None:
     soil_surface(out, command, **extra)

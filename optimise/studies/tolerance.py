@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from groundplane.errors import SolveError
+from groundplane.errors import SolveError, UserInputError
 from groundplane.shapes import GroundPlane, from_file, preset, to_dict
 
 from ..evaluate import Candidate, EvalSettings, evaluate
@@ -27,8 +27,9 @@ from ..scenarios import (
     as_built,
     missing_sheet,
     moved_corners,
+    scenario_set,
 )
-from . import study
+from . import StudyOption, study
 from ._common import verdict, write_csv
 
 DEFAULT_DRAWS = 3
@@ -165,8 +166,43 @@ def markdown(rows: list[dict], name: str, settings: EvalSettings, command: str) 
     return "\n".join(lines) + "\n"
 
 
+def _known_preset(name: str) -> str:
+    preset(name)  # an unknown name is refused here, before any solve
+    return name
+
+
+def _readable_design(path: Path) -> Path:
+    from_file(path)  # a bad design file is refused here, before any solve
+    return path
+
+
+def _some_draws(n: int) -> int:
+    if n < 1:
+        raise UserInputError("--draws must be >= 1")
+    return n
+
+
+def _scenario_set(name: str) -> ScenarioSet:
+    return scenario_set(name)  # an unknown set or a bad file: refused here
+
+
+def _one_design(extra: dict) -> None:
+    if extra.get("preset_name") is not None and extra.get("design") is not None:
+        raise UserInputError("tolerance: give --preset or --design, not both")
+
+
 @study("tolerance", "a design (--preset, default extended, or --design FILE) against its as-built variants: tooth "
-       "base, corner errors, plate height, a missing sheet, the antenna turned and off centre", uses_settings=True)
+       "base, corner errors, plate height, a missing sheet, the antenna turned and off centre", uses_settings=True,
+       options=(StudyOption("--preset", "preset_name", "the design (default extended)", metavar="NAME",
+                            check=_known_preset),
+                StudyOption("--design", "design", "the design from a file instead of a preset (a shape JSON or an "
+                            "optimiser's best.json)", Path, "FILE", check=_readable_design),
+                StudyOption("--draws", "draws", "Monte-Carlo draws per corner error (default 3)", int, "N",
+                            check=_some_draws),
+                StudyOption("--scenarios", "scenarios", "score the design on this scenario set's members (soil, "
+                            "model, as-built, field or a TOML file) instead of the study's own as-built variants",
+                            metavar="SET|FILE", check=_scenario_set)),
+       validate=_one_design)
 def _run(out: Path, settings: EvalSettings, command: str, preset_name: str = "extended",
          draws: int = DEFAULT_DRAWS, design: Path | None = None, scenarios: ScenarioSet | None = None) -> None:
     plane = from_file(design) if design is not None else None
