@@ -37,13 +37,22 @@ class Soil:
 
 @dataclass(frozen=True)
 class InfinitePEC:
-    """Infinite perfectly conducting ground (the paper's reference case; no plate)."""
+    """Infinite perfectly conducting ground (the paper's reference case; no plate).
+
+    >>> Design(None, InfinitePEC()).label()
+    'blade dipole over infinite PEC ground'
+    """
 
 
 @dataclass(frozen=True)
 class FreeSpace:
     """No ground at all: a plate (or the blade) alone in space. Not a site; the case in
-    which two engines can compare their models of a finite plate without a ground model."""
+    which two engines can compare their models of a finite plate without a ground model.
+
+    >>> from groundplane.shapes import Square
+    >>> Design(Square(10.0), FreeSpace()).label()
+    'Square(side=10.0) in free space'
+    """
 
 
 @dataclass(frozen=True)

@@ -9,15 +9,39 @@ from __future__ import annotations
 
 
 class GroundplaneError(Exception):
-    """Base of every error this toolkit raises on purpose."""
+    """Base of every error this toolkit raises on purpose.
+
+    >>> import groundplane as gp
+    >>> try:
+    ...     gp.preset("square-11")
+    ... except gp.GroundplaneError as exc:
+    ...     print(type(exc).__name__)
+    ShapeError
+    """
 
 
 class UserInputError(GroundplaneError, ValueError):
-    """Input the user can correct; the message names what is wrong and where."""
+    """Input the user can correct; the message names what is wrong and where.
+
+    >>> import groundplane as gp
+    >>> try:
+    ...     gp.fom("examples/lowband_square10_nec.npz", n_lst="many")
+    ... except gp.UserInputError as exc:
+    ...     print("refused")
+    refused
+    """
 
 
 class BeamFormatError(UserInputError):
-    """A beam file or array that is malformed, truncated or inconsistent."""
+    """A beam file or array that is malformed, truncated or inconsistent.
+
+    >>> import numpy as np, groundplane as gp
+    >>> try:
+    ...     gp.Beam(np.array([50.0]), np.arange(91.0), np.arange(360.0), -np.ones((1, 91, 360)))
+    ... except gp.BeamFormatError as exc:
+    ...     print(str(exc))
+    beam: linear power gain must be >= 0
+    """
 
 
 class GroundLossUndefined(UserInputError):
@@ -38,7 +62,13 @@ class ConfigError(UserInputError):
 
 
 class SolverError(GroundplaneError, RuntimeError):
-    """A solver that is missing, known to be wrong, or failed on a candidate."""
+    """A solver that is missing, known to be wrong, or failed on a candidate (its subclass
+    ``SolveError`` names the candidate).
+
+    >>> import groundplane as gp
+    >>> issubclass(gp.SolverError, gp.GroundplaneError)
+    True
+    """
 
 
 class EngineError(SolverError):

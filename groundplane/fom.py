@@ -62,7 +62,11 @@ NU0_RANGE = 2.0  # nu0 within this factor of the fit band: 1e20 or 1e-300 MHz sc
 
 @dataclass(frozen=True)
 class FomSettings:
-    """Everything the FoM depends on besides the beam. Defaults are the paper's."""
+    """Everything the FoM depends on besides the beam. Defaults are the paper's.
+
+    >>> FomSettings().fit_band_mhz, FomSettings().n_terms, FomSettings().lst_bin_hours
+    ((55.0, 97.0), 5, 2.0)
+    """
 
     beta: float = option(paper.SKY_SPECTRAL_INDEX, "sky spectral index")
     fit_band_mhz: tuple[float, float] = option(paper.FIT_BAND_MHZ, "LinLog fit band (MHz)", flag="--fit-band",
@@ -147,7 +151,13 @@ class FomSettings:
 
 @dataclass
 class FomResult:
-    """FoM per LST (K) with the spectra it came from."""
+    """FoM per LST (K) with the spectra it came from.
+
+    >>> import groundplane as gp
+    >>> r = gp.fom("examples/lowband_square10_nec.npz", n_lst=24)
+    >>> r.fom_mk.shape, r.residuals.shape[0] == int(r.fit_mask.sum())
+    ((12,), True)
+    """
 
     freqs_mhz: np.ndarray  # all beam frequencies
     lst_hours: np.ndarray

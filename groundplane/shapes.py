@@ -7,7 +7,8 @@ bounds, the values an integer parameter is searched over. It also declares its m
 area as a closed form valid for *any* parameters (the optimiser's constraint needs it
 outside the valid region too) and its validity constraints. The CLI shape flags, the
 sweep TOML and the optimiser are all generated from those declarations, so a new family
-is one class::
+is one class (``groundplane.shapes.preset("square-10")`` gives a paper's plane; ``SHAPES``
+every family)::
 
     class Ring(GroundPlane, kind="ring"):
         outer: float = param("outer radius (m)", bounds=(2.0, 20.0))

@@ -17,8 +17,8 @@ def test_every_public_name_is_documented_with_an_example():
     for name in gp.__all__:
         obj = getattr(gp, name)
         assert obj.__doc__, name
-        if callable(obj) and not isinstance(obj, type) and name not in ("from_file", "preset"):
-            assert "Examples" in obj.__doc__ or ">>>" in obj.__doc__, name
+        if name != "shapes":  # the module: its families and presets carry the examples
+            assert ">>>" in obj.__doc__, f"{name}: no example in its docstring"
 
 
 def test_the_core_docstring_examples_run(monkeypatch):
@@ -36,7 +36,7 @@ def test_the_core_docstring_examples_run(monkeypatch):
                 runner.run(test)
                 tried.add(name)
     assert runner.failures == 0
-    assert {"fom", "compare", "export", "fabrication_plan", "preset", "from_file", "Beam", "Soil", "Design"} <= tried
+    assert set(gp.__all__) - {"shapes", "solve", "score", "optimise", "sweep"} <= tried
 
 
 def test_the_api_reference_builds_without_warnings(tmp_path):
