@@ -390,10 +390,10 @@ class Solver(ABC):
         gains = np.stack([results[float(f)][0] for f in freqs])
         if plan.n_phi == 91:
             gains = mirror_quadrant(gains)
-        extras: dict[str, list[float]] = {}
-        for f in freqs:
-            for k, v in results[float(f)][2].items():
-                extras.setdefault(k, []).append(v)
+        # one value per frequency, aligned: a frequency resumed from a partial written without
+        # some extra (an older run) holds NaN there, not a shorter list that shifts the rest
+        names = sorted({k for f in freqs for k in results[float(f)][2]})
+        extras = {k: [results[float(f)][2].get(k, float("nan")) for f in freqs] for k in names}
         return Beam(freqs, np.arange(91.0), np.arange(360.0), gains, {
             "source": f"{self.name} solve of {design.label()}",
             "solver": self.name,

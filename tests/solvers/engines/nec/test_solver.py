@@ -54,6 +54,9 @@ def test_soil_solve_cache_and_resume(tmp_path, monkeypatch):
     assert np.allclose(beam.gain[1, :, :91], g_fake)
     assert beam.meta["n_segments"] > 0 and beam.shape == (3, 91, 360)
     assert np.all(beam.gain[[0, 2], 0, 0] > 1.0)  # real solves: positive zenith gain
+    # the partial carried no impedance: NaN at its frequency, the solved ones aligned beside it
+    z = np.asarray(beam.meta["input_impedance_re"])
+    assert z.size == 3 and np.isnan(z[1]) and np.all(np.isfinite(z[[0, 2]]))
     # now cached whole: a second solve is a cache hit, and the partials are gone
     assert cache.get(key) is not None and not (tmp_path / "partial" / key).exists()
     monkeypatch.setattr(NecSolver, "plan", lambda *a: (_ for _ in ()).throw(AssertionError("re-solved")))
