@@ -262,7 +262,7 @@ def compare_beams(beams: Sequence[Beam], labels: Sequence[str] | None = None, pa
         raise UserInputError(f"--elevation-cut {elevation_cut_deg:g}: must be 0-90 deg (exclusive of 90)")
     common = common_beams(beams, labels, settings, elevation_cut_deg)
     bin_hours = settings.lst_bin_hours or paper.DATA_LST_BIN_HOURS
-    every = replace(settings, lst_bin_hours=0.0)
+    every = settings.every_lst()
     replace(settings, lst_bin_hours=bin_hours)  # refuse bins that do not divide the LSTs before scoring
     summaries = []
     for beam, label, path in zip(common, labels, paths):

@@ -93,6 +93,15 @@ class FomSettings:
     absorption: Absorption | None = option(None, "add the Bowman et al. 2018 absorption feature to the sky",
                                            switch=Absorption)
 
+    def every_lst(self) -> "FomSettings":
+        """These settings scoring every LST, unbinned (SPEC section 3's FoM; the paper's 2 h bins are
+        the default).
+
+        >>> FomSettings().every_lst().lst_bin_hours
+        0.0
+        """
+        return replace(self, lst_bin_hours=0.0)
+
     def __post_init__(self) -> None:
         lo, hi = self.fit_band_mhz
         if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi):

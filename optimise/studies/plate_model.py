@@ -49,7 +49,7 @@ def plate_model(out: Path, command: str, grid=GRID, shape: str = "square-10") ->
     for sp, h, r in grid:
         beam, _ = solve(Design(PRESETS[shape], Soil()), NecSettings(spacing=sp, plate_height=h, plate_wire_radius=r))
         secs = float(sum(beam.meta["seconds_per_frequency"]))  # what the solve cost, cached or not
-        res = figure_of_merit(beam, FomSettings(lst_bin_hours=0.0))
+        res = figure_of_merit(beam, FomSettings().every_lst())
         row = {"spacing_m": sp, "height_m": h, "radius_m": r, "segments": beam.meta["n_segments"],
                "fom_mk": res.lst_averaged_mk, "smoothed12_mk": fom_mk(beam.frequency_smoothed(12)),
                "narrow_rms": narrow_band_rms(beam), "efficiency_75": efficiency(beam),

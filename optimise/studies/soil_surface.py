@@ -166,7 +166,7 @@ def soil_surface(out: Path, command: str, workers: int = 2, todo: list[Row] | No
         if beam is None:
             missing.append(r)
             continue
-        res = figure_of_merit(beam, FomSettings(lst_bin_hours=0.0))  # once per row: the table and the figure use it
+        res = figure_of_merit(beam, FomSettings().every_lst())  # once per row: the table and the figure use it
         done.append((r, beam, _measure(r, beam, res), res))
         _write(out, command, [d[2] for d in done], finished=False)
     _plot(done, out / "soil_surface.png")

@@ -48,7 +48,7 @@ def soil_sweep(settings: EvalSettings, out_dir: str | Path, command: str, progre
     """Solve and score every run twice: every 1 deg of LST and in the paper's 2 h LST bins."""
     out = Path(out_dir)
     # the two FoM columns whatever --lst-bin says: every LST, and the paper's 2 h bins
-    every = replace(settings, fom=replace(settings.fom, lst_bin_hours=0.0))
+    every = replace(settings, fom=settings.fom.every_lst())
     binned = replace(settings, fom=replace(settings.fom, lst_bin_hours=paper.DATA_LST_BIN_HOURS))
     rows: list[dict[str, Any]] = []
     for plane, kind, soil in runs():
