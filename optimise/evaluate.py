@@ -103,12 +103,12 @@ class EvalSettings:
         points in it for the fit)."""
         from groundplane.fom import fit_band_mask
 
-        grounds = getattr(ENGINES[self.engine], "grounds", ("soil", "pec"))
+        grounds = ENGINES[self.engine].grounds  # each engine declares what it can put under a design
         if "soil" not in grounds:
-            also = " (or in free space)" if "free" in grounds else ""
-            raise UserInputError(f"--engine {self.engine} solves over infinite PEC ground only{also}, and candidates "
-                                 "here lie on soil: use --engine nec (or `groundplane solve --engine "
-                                 f"{self.engine} --ground pec` for one design above PEC)")
+            able = " or ".join(f"--engine {n}" for n, cls in ENGINES.items() if "soil" in cls.grounds) or "another engine"
+            raise UserInputError(f"--engine {self.engine} solves over {', '.join(grounds)} ground only, and candidates "
+                                 f"here lie on soil: use {able} (or `groundplane solve --engine {self.engine} "
+                                 "--ground pec` for one design above PEC)")
 
         try:
             fit_band_mask(np.asarray(self.freqs_mhz, dtype=float), self.fom.fit_band_mhz, self.fom.n_terms)
