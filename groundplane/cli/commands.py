@@ -20,10 +20,15 @@ def _format_choices() -> list[str]:
     return reader_formats()
 
 
+def _add_beam_paths(p: argparse.ArgumentParser, help: str, metavar: str | None = "BEAM") -> None:
+    """The beam-file arguments every command that reads beams takes: the paths and --format."""
+    p.add_argument("paths", nargs="+", metavar=metavar, help=help)
+    p.add_argument("--format", default="auto", choices=_format_choices(), help="beam file format (default: detect)")
+
+
 @command("fom", "score beam file(s): LST-averaged chromaticity FoM (mK)")
 def _setup_fom(p: argparse.ArgumentParser):
-    p.add_argument("paths", nargs="+", help="beam file(s); several FEKO quadrant .ffe files make one beam")
-    p.add_argument("--format", default="auto", choices=_format_choices(), help="beam file format (default: detect)")
+    _add_beam_paths(p, "beam file(s); several FEKO quadrant .ffe files make one beam", None)
     add_options(p, FomSettings, "Figure of Merit (defaults: the paper's)")
     p.add_argument("--beam-correction", metavar="MODEL_BEAM",
                    help="divide spectra by the beam-correction factor of this model beam first")
@@ -108,8 +113,7 @@ def loss_line(beam, loss, note: str | None, band: tuple[float, float]) -> str:
 @command("loss", "ground loss per frequency of beam file(s): 1 - the upper hemisphere's integral of G / 4 pi; "
          "-o writes the two-column table (MHz, fraction) the EDGES pipeline reads")
 def _setup_loss(p: argparse.ArgumentParser):
-    p.add_argument("paths", nargs="+", metavar="BEAM", help="beam file(s), each one beam")
-    p.add_argument("--format", default="auto", choices=_format_choices(), help="beam file format (default: detect)")
+    _add_beam_paths(p, "beam file(s), each one beam")
     p.add_argument("-o", "--output", metavar="FILE.txt", help="write the loss table of the (one) beam here: '#' "
                    "header lines, then frequency (MHz) and loss (fraction) per line")
     p.add_argument("--json", action="store_true", help="print a JSON object")
@@ -158,9 +162,7 @@ def _run_loss(args: argparse.Namespace) -> int:
 @command("s11", "the antenna's input impedance and reflection coefficient per frequency from solved beam(s); "
          "-o writes a Touchstone one-port file (.s1p)")
 def _setup_s11(p: argparse.ArgumentParser):
-    p.add_argument("paths", nargs="+", metavar="BEAM", help="beam file(s) carrying the input impedance (our engines' "
-                   "beams, the EDGES FEKO table)")
-    p.add_argument("--format", default="auto", choices=_format_choices(), help="beam file format (default: detect)")
+    _add_beam_paths(p, "beam file(s) carrying the input impedance (our engines' beams, the EDGES FEKO table)")
     p.add_argument("--z0", type=float, default=50.0, help="reference impedance (ohm, default 50)")
     p.add_argument("-o", "--output", metavar="FILE.s1p", help="write the (one) beam's S11 as Touchstone v1")
     p.add_argument("--plot", metavar="FILE.png", help="|S11| (dB) and the impedance against frequency")
@@ -313,8 +315,7 @@ def _run_plot(args: argparse.Namespace) -> int:
 @command("compare", "two or more beams on common frequencies: dB differences over the sky, zenith ratio, "
          "widths, efficiency, and their FoMs scored alike")
 def _setup_compare(p: argparse.ArgumentParser):
-    p.add_argument("paths", nargs="+", metavar="BEAM", help="beam files; each is compared with the first")
-    p.add_argument("--format", default="auto", choices=_format_choices(), help="beam file format (default: detect)")
+    _add_beam_paths(p, "beam files; each is compared with the first")
     p.add_argument("--elevation-cut", type=float, default=10.0, metavar="DEG",
                    help="compare gains over the sky at least this far above the horizon (default 10 deg)")
     p.add_argument("--json", action="store_true", help="print a JSON object instead of the tables")
