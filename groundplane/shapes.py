@@ -258,6 +258,19 @@ class GroundPlane:
         """A stable content key: the shape kind and its parameters, canonical JSON, hashed."""
         return f"{self.kind}-" + hashlib.sha256(self.canonical().encode()).hexdigest()[:16]
 
+    def outline_key(self) -> str:
+        """A content key of the outline alone: one for every parameterisation of the same metal
+        (a ``teeth-xy`` whose teeth have height 0 is the same plane whatever their base), which is
+        all an engine meshes. Vertices to 1 um, counter-clockwise from the smallest (x, y).
+
+        >>> Square(side=10).outline_key() == SHAPES["teeth-xy"].member(Square(side=10)).outline_key()
+        True
+        """
+        v = np.round(np.asarray(self.outline().exterior.coords)[:-1], 6) + 0.0  # + 0.0: no -0.0 in the key
+        start = min(range(len(v)), key=lambda i: (v[i, 0], v[i, 1]))
+        ring = np.roll(v, -start, axis=0)
+        return "outline-" + hashlib.sha256(json.dumps(ring.tolist()).encode()).hexdigest()[:16]
+
     def canonical(self) -> str:
         def norm(v: Any) -> Any:
             if isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool):

@@ -24,7 +24,7 @@ from groundplane.shapes import PRESETS, to_dict
 from .evaluate import Candidate, EvalSettings, evaluate, pec_floor_mk
 from .provenance import header
 from .report import cell
-from .search import OptimiseResult, best_plane, family, optimise
+from .search import OptimiseResult, best_plane, best_so_far, family, optimise, solved_rows
 
 LADDER_DESIGNS = 24  # designs scored at both levels to measure how well the cheap one ranks (>= 20)
 PARETO_COLUMNS = ("budget_m2", "area_m2", "fom_mk", "worst_fom_mk", "mean_fom_mk", "max_loss", "loss_spread",
@@ -83,7 +83,7 @@ def _answer(shape: str, budget_m2: float, res: OptimiseResult, confirm: EvalSett
     feasible design, the one that came closest (``feasible`` False, and what it breaks)."""
     best = res.best or res.closest
     stop = res.stopping or {}
-    solves = stop.get("solves", sum(1 for r in res.history if r["status"] in ("ok", "failed")))
+    solves = stop.get("solves", len(solved_rows(res.history)))
     head = {"budget_m2": budget_m2, "evaluations": solves, "best_at": stop.get("best_at"), "flat": stop.get("flat")}
     if best is None:
         return {**head, "area_m2": None, "fom_mk": None, "mesh_m": confirm.spacing, "design": None}
@@ -113,7 +113,7 @@ def fidelity_ladder(shape: str, results: dict[float, OptimiseResult], confirm: E
     fam = family(shape)
     seen = {}
     for res in results.values():
-        for r in res.history:
+        for r in solved_rows(res.history):
             if r["status"] == "ok":
                 seen.setdefault(History.key(r["integer"], r["x"]), r)
     pool = sorted(seen.values(), key=lambda r: r["fom_mk"])
@@ -127,6 +127,32 @@ def fidelity_ladder(shape: str, results: dict[float, OptimiseResult], confirm: E
     pairs = [(r["search_fom_mk"], r["confirm_fom_mk"]) for r in rows if r["confirm_fom_mk"] is not None]
     rho = float(spearmanr(*zip(*pairs)).statistic) if len(pairs) >= 3 else None
     return rows, rho
+
+
+def kept_rows(evaluate_fn: Callable[[Candidate, EvalSettings], dict[str, Any]], path: Path,
+              objective: dict[str, Any]) -> Callable[[Candidate, EvalSettings], dict[str, Any]]:
+    """``evaluate_fn`` whose scored rows are kept in ``path`` (JSON lines keyed by the plane's
+    outline, the settings and ``objective``): a front resumed on another machine, whose beam
+    cache is empty, scores its answers, presets and ladder again from these rows, not by solving."""
+    import hashlib
+
+    from groundplane.files import append_jsonl, read_jsonl
+
+    done = {r["key"]: r["row"] for r in read_jsonl(path) if isinstance(r.get("key"), str) and isinstance(r.get("row"), dict)}
+
+    def run(candidate: Candidate, settings: EvalSettings) -> dict[str, Any]:
+        what = candidate.plane.outline_key() if candidate.plane is not None else candidate.identity()
+        key = hashlib.sha256(json.dumps([what, settings.identity(), objective], sort_keys=True,
+                                        default=str).encode()).hexdigest()[:24]
+        if key in done:
+            return done[key]
+        row = evaluate_fn(candidate, settings)
+        if row.get("status") == "ok":
+            row = json.loads(json.dumps(row, default=float))  # as it will read back (numpy scalars as floats)
+            append_jsonl(path, {"key": key, "name": candidate.name, "row": row})
+            done[key] = row
+        return row
+    return run
 
 
 def pareto_front(shape: str, budgets: list[float], settings: EvalSettings, confirm: EvalSettings, out_dir: str | Path,
@@ -146,6 +172,11 @@ def pareto_front(shape: str, budgets: list[float], settings: EvalSettings, confi
     if evaluate_fn is None:
         evaluate_fn = (scenario_evaluator(scenarios, constraints, progress) if scenarios is not None
                        else (lambda c, s: evaluate(c, s, progress=progress)))
+        objective = {"scenarios": scenarios.identity() if scenarios is not None else None,
+                     "constraints": constraints.identity() if constraints is not None else None}
+        scored = kept_rows(evaluate_fn, out / "scored.jsonl", objective)  # answers, presets, ladder
+    else:
+        scored = evaluate_fn
     results, rows = {}, []
     for b in sorted(budgets):
         if progress:
@@ -157,11 +188,11 @@ def pareto_front(shape: str, budgets: list[float], settings: EvalSettings, confi
                        scheduler=scheduler, seeds=smaller, constraints=constraints, max_budget=max_budget,
                        objective={"scenarios": scenarios.identity()} if scenarios is not None else None)
         results[b] = res
-        rows.append(_answer(shape, b, res, confirm, answer_mesh, evaluate_fn, constraints))
+        rows.append(_answer(shape, b, res, confirm, answer_mesh, scored, constraints))
         write_csv(out / "front.csv", rows, PARETO_COLUMNS)
-    presets = preset_rows(confirm, evaluate_fn, floor, constraints)
+    presets = preset_rows(confirm, scored, floor, constraints)
     write_csv(out / "presets.csv", presets, PRESET_COLUMNS)
-    lad, rho = fidelity_ladder(shape, results, confirm, evaluate_fn, ladder) if ladder else ([], None)
+    lad, rho = fidelity_ladder(shape, results, confirm, scored, ladder) if ladder else ([], None)
     if lad:
         write_csv(out / "ladder.csv", lad, tuple(lad[0]))
     return Front(rows, presets, lad, rho, results)
@@ -296,14 +327,14 @@ def convergence_figure(front: Front, path: Path) -> Path:
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 4.5))
     for k, (b, res) in enumerate(sorted(front.results.items())):
-        solved = [r for r in res.history if r["status"] in ("ok", "failed")]
-        best = np.minimum.accumulate([r["fom_mk"] if r["status"] == "ok" else np.inf for r in solved])
+        solved = solved_rows(res.history)
+        best = np.array(best_so_far(solved))
         x = np.arange(1, len(solved) + 1)
         ax.step(x, best, where="post", color=f"C{k}", label=f"{b:g} m$^2$")
         refine = [i for i, r in enumerate(solved) if str(r.get("phase", "")).startswith("refine")]
         if refine:
             ax.plot(x[refine], best[refine], ".", color=f"C{k}", ms=3)
-    ax.set(xlabel="solves (dots: local refinement)", ylabel="best FoM so far, search level (mK)",
+    ax.set(xlabel="solves (dots: local refinement)", ylabel="best feasible FoM so far, search level (mK)",
            title="Search convergence per metal budget")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, title="budget")

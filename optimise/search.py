@@ -116,6 +116,10 @@ class History:
             warn_once(str(path), f"{path}: {len(rows) - len(self.rows)} line(s) are not history rows and are ignored "
                                  "(their designs are evaluated again)")
         self.index = {self.key(r["integer"], r["x"]): r for r in self.rows}
+        self.outlines: dict[str, dict[str, Any]] = {}  # outline_key -> the first scored row of that metal
+        for r in self.rows:
+            if r["status"] in ("ok", "failed") and r.get("outline") and r["outline"] not in self.outlines:
+                self.outlines[r["outline"]] = r
 
     @staticmethod
     def whole(r: dict[str, Any]) -> bool:
@@ -137,7 +141,14 @@ class History:
     def add(self, row: dict[str, Any]) -> None:
         self.rows.append(row)
         self.index[self.key(row["integer"], row["x"])] = row
+        if row["status"] in ("ok", "failed") and row.get("outline"):
+            self.outlines.setdefault(row["outline"], row)
         append_jsonl(self.path, row)
+
+    def same_metal(self, outline: str) -> dict[str, Any] | None:
+        """The scored row of this outline (another x of the same plane: parameters that change
+        nothing, such as the base of teeth of height 0), or None."""
+        return self.outlines.get(outline)
 
 
 @dataclass
@@ -313,6 +324,7 @@ def optimise(
     ev = _Evaluator(fam, shape, max_area, settings, History(out / "history.jsonl"),
                     evaluate_fn or _default_evaluate(scenarios, constraints, progress), progress, budget=budget,
                     constraints=constraints)
+    ev.backfill_outlines()
     if strategy == "global":
         _global_search(fam, ints, ev, algorithm, out, executor, scheduler, seeds)
     else:
@@ -375,16 +387,28 @@ def _default_evaluate(scenarios, constraints, progress: bool) -> Callable[[Candi
 FLAT_TOLERANCE = 0.01  # improvements smaller than this (relative) are within the model's own noise (mesh, fit)
 
 
-def flat_over_last_half(rows: list[dict[str, Any]], tol: float = FLAT_TOLERANCE) -> dict[str, Any]:
-    """The stopping rule, from a search's rows in order: the solves, the solve from which the best
-    feasible objective so far stays within ``tol`` of the final best, and whether that lies in the
-    first half (the second half found nothing better by more than ``tol``)."""
-    solved = [r for r in rows if r["status"] in ("ok", "failed")]
+def solved_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The rows that cost a solve, in order (not the invalid ones, nor a plane met again)."""
+    return [r for r in rows if r["status"] in ("ok", "failed") and "same_metal_as" not in r]
+
+
+def best_so_far(solved: list[dict[str, Any]]) -> list[float]:
+    """The best feasible FoM after each solve (inf until the first feasible one): the curve the
+    stopping rule reads and the convergence figure draws."""
     so_far, curve = math.inf, []
     for r in solved:
         if r["status"] == "ok" and r.get("feasible", True):
             so_far = min(so_far, r["fom_mk"])
         curve.append(so_far)
+    return curve
+
+
+def flat_over_last_half(rows: list[dict[str, Any]], tol: float = FLAT_TOLERANCE) -> dict[str, Any]:
+    """The stopping rule, from a search's rows in order: the solves, the solve from which the best
+    feasible objective so far stays within ``tol`` of the final best, and whether that lies in the
+    first half (the second half found nothing better by more than ``tol``)."""
+    solved = solved_rows(rows)
+    curve = best_so_far(solved)
     if not curve or not math.isfinite(curve[-1]):
         return {"solves": len(solved), "best_at": 0, "flat": False}
     at = next(i for i, v in enumerate(curve, 1) if v <= curve[-1] * (1 + tol))
@@ -617,12 +641,14 @@ class _Evaluator:
         seen = self.hist.get(n, x)
         if seen is not None:  # replay: nlopt sees exactly what it saw before
             key = History.key(n, x)
-            if seen["status"] in ("ok", "failed") and key not in self._replayed:
+            if seen["status"] in ("ok", "failed") and "same_metal_as" not in seen and key not in self._replayed:
                 self._replayed.add(key)
                 self.counted.append(seen)
                 self.solves += 1
             return float(seen["objective"])
         why = self.reason(x, n)
+        if why is None and (twin := self.hist.same_metal((plane or self.fam.build(x, n)).outline_key())) is not None:
+            return self._same_metal(x, n, phase, twin)
         if why is None and self.solves >= self.budget:
             raise BudgetSpent
         t0 = time.perf_counter()
@@ -643,6 +669,25 @@ class _Evaluator:
                   f"x={np.round(x, 3).tolist()} area={row['area_m2']:.1f} m^2 -> {f} ({row['seconds']:.0f} s)",
                   file=sys.stderr, flush=True)
         return float(row["objective"])
+
+    def _same_metal(self, x: np.ndarray, n: int | None, phase: str, twin: dict[str, Any]) -> float:
+        """x is a plane already scored under other parameters: its row again, no solve counted."""
+        row = {**twin, "integer": n, "x": [float(v) for v in x], "params": self.fam.params(x, n), "phase": phase,
+               "same_metal_as": self.hist.rows.index(twin) + 1, "seconds": 0.0}
+        self.hist.add(row)
+        if self.progress:
+            print(f"  eval {len(self.hist.rows):3d} [{phase}]: the plane of eval {row['same_metal_as']} (same outline), "
+                  "no solve", file=sys.stderr, flush=True)
+        return float(row["objective"])
+
+    def backfill_outlines(self) -> None:
+        """Index the scored rows of a history written before rows carried their outline."""
+        for r in self.hist.rows:
+            if r["status"] in ("ok", "failed") and not r.get("outline") and "same_metal_as" not in r:
+                try:
+                    self.hist.outlines.setdefault(row_plane(self.fam, r).outline_key(), r)
+                except ShapeError:
+                    continue
 
     def reason(self, x: np.ndarray, n: int | None) -> str | None:
         """Why x cannot be solved (None if it can): invalid, over the budget, or finer than the mesh."""
@@ -674,8 +719,9 @@ class _Evaluator:
                 feas = {"feasible": not broken, "violations": broken,
                         "margins": self.constraints.margin(loss, res.get("loss_spread"))}
             return {"status": "ok", "fom_mk": float(fom), "name": name or plane.describe(), "max_loss": loss, **kept,
-                    **feas}
-        return {"status": "failed", "fom_mk": None, "error": str(res.get("error", "non-finite FoM"))}
+                    **feas, "outline": plane.outline_key()}
+        return {"status": "failed", "fom_mk": None, "error": str(res.get("error", "non-finite FoM")),
+                "outline": plane.outline_key()}
 
 
 def _run_nlopt(fam: Family, n: int | None, ev: _Evaluator, algorithm: str, stop_at_solves: int, max_area: float,

@@ -108,3 +108,17 @@ def test_teeth_that_do_not_fit_are_refused():
         Teeth(10.0, 4, 3.0, 2.0, 0.5)
     with pytest.raises(ShapeError, match="tip_fraction 1.5 must be <= 1"):
         Teeth(10.0, 2, 3.0, 2.0, 1.5)
+
+
+def test_one_outline_one_key_whatever_the_parameters():
+    import doctest
+
+    from groundplane import shapes
+
+    for test in doctest.DocTestFinder().find(shapes.GroundPlane.outline_key, globs=vars(shapes)):
+        assert doctest.DocTestRunner().run(test).failed == 0
+    xy = shapes.SHAPES["teeth-xy"]
+    for name, plane in shapes.PRESETS.items():
+        member = xy.member(plane)
+        assert member is not None and member.outline_key() == plane.outline_key(), name
+    assert shapes.Square(side=10).outline_key() != shapes.Square(side=10.001).outline_key()

@@ -222,3 +222,23 @@ def test_seed_designs_are_checked_before_the_search_and_reach_it(tmp_path, capsy
     args = build_parser(argv).parse_args(argv)
     seeds = _search_options(args, _seeds(args))["seeds"]
     assert list(seeds) == [str(cross)] and seeds[str(cross)].metal_area == pytest.approx(107.6, abs=0.1)
+
+
+def test_a_front_keeps_its_scored_rows_for_a_machine_without_the_beam_cache(tmp_path):
+    """A resumed front re-solved its answers, presets and ladder whenever the beam cache was
+    gone (a new machine): their rows are kept beside the histories, by outline and settings."""
+    from groundplane.shapes import SHAPES
+    from optimise.evaluate import Candidate
+    from optimise.pareto import kept_rows
+
+    calls = []
+    ev = fake_eval(calls)
+    path, objective = tmp_path / "scored.jsonl", {"scenarios": "soil"}
+    s = EvalSettings()
+    first = kept_rows(ev, path, objective)(Candidate("a", plane=PRESETS["square-10"]), s)
+    twin = SHAPES["teeth-xy"].member(PRESETS["square-10"])  # the same metal under another family's parameters
+    again = kept_rows(ev, path, objective)  # a new process: only the file is left
+    assert again(Candidate("b", plane=twin), s) == first and len(calls) == 1
+    again(Candidate("c", plane=PRESETS["square-10"]), s.with_spacing(1.0))  # other settings: scored
+    kept_rows(ev, path, {"scenarios": "field"})(Candidate("d", plane=PRESETS["square-10"]), s)  # other objective
+    assert len(calls) == 3

@@ -210,3 +210,45 @@ def test_the_search_itself_refuses_a_seed_it_could_not_use(tmp_path):
     with pytest.raises(UserInputError, match="--seed needs --strategy global"):
         optimise("square", 500.0, EvalSettings(), tmp_path, budget=4, evaluate_fn=ev, progress=False,
                  seeds={"big": Square(10.0)}, strategy="local")
+
+
+def _teeth_xy_x(fam, **p):
+    base = dict(side=16.0, chamfer=0.0, base_x=3.0, height_x=4.0, tip_x=0.0, base_y=3.0, height_y=0.0, tip_y=0.0,
+                base_d=0.0, height_d=0.0, tip_d=0.0)
+    return np.array([{**base, **p}[k] for k in fam.names])
+
+
+def test_a_plane_met_again_under_other_parameters_is_not_solved_again(tmp_path):
+    """The robust front's until-flat phase re-solved one plane at 80-140 s a time: teeth of height
+    0 whose base the optimiser moved. The same outline is now the same row, and costs no solve."""
+    from optimise.search import History, _Evaluator, flat_over_last_half
+
+    fam = family("teeth-xy")
+    ev_fn, calls = _fake_eval(lambda p: 100.0 + p.metal_area / 100)
+    ev = _Evaluator(fam, "teeth-xy", 900.0, EvalSettings().with_spacing(1.0), History(tmp_path / "h.jsonl"), ev_fn,
+                    progress=False)
+    a = ev(_teeth_xy_x(fam), np.zeros(0), 2)
+    b = ev(_teeth_xy_x(fam, base_y=5.0, tip_y=0.7), np.zeros(0), 2)  # no y teeth: base_y and tip_y change nothing
+    c = ev(_teeth_xy_x(fam, height_y=1.0), np.zeros(0), 2)  # another plane
+    assert a == b != c and len(calls) == 2 and ev.solves == 2
+    assert ev.hist.rows[1]["same_metal_as"] == 1 and ev.hist.rows[1]["seconds"] == 0.0
+    assert flat_over_last_half(ev.counted)["solves"] == 2
+    # a resumed search replays the twin without counting it, and an old history (rows without their
+    # outline) is indexed from its planes
+    rows = [json.loads(line) for line in (tmp_path / "h.jsonl").read_text().splitlines()]
+    (tmp_path / "old.jsonl").write_text("".join(json.dumps({k: v for k, v in r.items() if k != "outline"}) + "\n"
+                                                for r in rows[:1]))
+    ev2 = _Evaluator(fam, "teeth-xy", 900.0, EvalSettings().with_spacing(1.0), History(tmp_path / "old.jsonl"), ev_fn,
+                     progress=False)
+    ev2.backfill_outlines()
+    assert ev2(_teeth_xy_x(fam, base_y=7.0), np.zeros(0), 2) == a and len(calls) == 2 and ev2.solves == 0
+
+
+def test_the_convergence_curve_is_the_best_feasible_so_far():
+    from optimise.search import best_so_far, solved_rows
+
+    rows = [{"status": "ok", "fom_mk": 50.0, "feasible": False}, {"status": "invalid", "fom_mk": None},
+            {"status": "ok", "fom_mk": 90.0, "feasible": True}, {"status": "ok", "fom_mk": 90.0, "same_metal_as": 3},
+            {"status": "failed", "fom_mk": None}, {"status": "ok", "fom_mk": 80.0}]
+    solved = solved_rows(rows)
+    assert len(solved) == 4 and best_so_far(solved) == [math.inf, 90.0, 90.0, 80.0]
