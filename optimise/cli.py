@@ -305,6 +305,10 @@ def stopping_sentence(stop: dict) -> str:
         return ""
     if not stop.get("best_at"):
         return f"No feasible design in {stop['solves']} solves."
+    if stop.get("measure") == "violation":
+        return (f"No feasible design in {stop['solves']} solves; the least violation so far was found at solve "
+                f"{stop['best_at']}: " + ("flat over the last half." if stop["flat"] else "**not** flat over the last "
+                                          "half."))
     return (f"The best so far was found at solve {stop['best_at']} of {stop['solves']}: "
             + ("flat over the last half." if stop["flat"] else "**not** flat over the last half (the search had not "
                "converged; --max-budget lets it go on)."))

@@ -217,7 +217,9 @@ def verdicts(front: Front, target: float = 0.25, reference: str | None = None) -
             out.append(f"- {r['budget_m2']:g} m^2: no design was scored.")
             continue
         if r.get("feasible") is False:
-            out.append(f"- {r['budget_m2']:g} m^2: no feasible design in {r['evaluations']} solves; the closest, "
+            flat = ("" if not r.get("best_at") else f" (the least violation found at solve {r['best_at']}: "
+                    + ("flat over the last half)" if r.get("flat") else "**not** flat over the last half)"))
+            out.append(f"- {r['budget_m2']:g} m^2: no feasible design in {r['evaluations']} solves{flat}; the closest, "
                        f"{r['area_m2']:.0f} m^2 at {r['fom_mk']:.1f} mK, breaks: {r.get('violations') or '?'}.")
             continue
         flat = ("" if r.get("flat") is None else f"; best at solve {r['best_at']} of {r['evaluations']}: "

@@ -408,24 +408,38 @@ def flat_over_last_half(rows: list[dict[str, Any]], tol: float = FLAT_TOLERANCE)
     feasible objective so far stays within ``tol`` of the final best, and whether that lies in the
     first half (the second half found nothing better by more than ``tol``)."""
     solved = solved_rows(rows)
-    curve = best_so_far(solved)
+    curve, measure = best_so_far(solved), "fom"
+    if curve and not math.isfinite(curve[-1]):  # nothing feasible: how close the search came
+        curve, measure = least_violation_so_far(solved), "violation"
     if not curve or not math.isfinite(curve[-1]):
-        return {"solves": len(solved), "best_at": 0, "flat": False}
+        return {"solves": len(solved), "best_at": 0, "flat": False, "measure": measure}
     at = next(i for i, v in enumerate(curve, 1) if v <= curve[-1] * (1 + tol))
-    return {"solves": len(solved), "best_at": at, "flat": at <= len(solved) / 2}
+    return {"solves": len(solved), "best_at": at, "flat": at <= len(solved) / 2, "measure": measure}
+
+
+def least_violation_so_far(solved: list[dict[str, Any]]) -> list[float]:
+    """With no feasible design: the smallest relative constraint violation after each solve (the
+    largest of a row's margins; inf until the first scored row)."""
+    so_far, curve = math.inf, []
+    for r in solved:
+        if r["status"] == "ok" and r.get("margins"):
+            so_far = min(so_far, max(r["margins"]))
+        curve.append(so_far)
+    return curve
 
 
 def _until_flat(fam: Family, ev: "_Evaluator", algorithm: str, max_budget: int) -> dict[str, Any]:
-    """Go on refining from the best design, half the solves so far at a time, until the best so
-    far lies in the first half of the solves or ``max_budget`` solves are spent."""
+    """Go on refining from the best design (with none feasible: the closest), half the solves so
+    far at a time, until at least the budget asked is spent and the best so far lies in the first
+    half of the solves, or ``max_budget`` solves are spent."""
     state = flat_over_last_half(ev.counted)  # as counted, so a resumed search decides as the first run did
-    k = 0
-    while not state["flat"] and ev.solves < max_budget:
-        best = ev.best()
+    asked, k = ev.budget, 0
+    while (not state["flat"] or ev.solves < asked) and ev.solves < max_budget:
+        best = ev.best() or ev.closest()
         if best is None:
             break
         k += 1
-        more = min(max_budget, max(ev.solves + 1, 2 * state["best_at"])) - ev.solves
+        more = min(max_budget, max(ev.solves + 1, 2 * state["best_at"], asked)) - ev.solves
         ev.budget = ev.solves + more
         before = ev.solves
         _run_nlopt(fam, best["integer"], ev, algorithm, ev.solves + more, ev.max_area, ev.progress,

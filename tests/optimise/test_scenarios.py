@@ -130,17 +130,28 @@ def test_the_search_never_answers_an_infeasible_design_and_the_loss_binds(tmp_pa
     nothing = optimise("square", 50.0, EvalSettings(), tmp_path / "small", budget=6, evaluate_fn=ev, progress=False,
                        constraints=Constraints(0.003))
     assert nothing.best is None and nothing.closest is not None and not nothing.closest["feasible"]
+    # with nothing feasible the search still spends its budget, refining from the closest design (the robust
+    # front's 200 m^2 stopped at 108 of 120), and its stopping rule reads the least violation
+    assert nothing.stopping["solves"] == 6 and nothing.stopping["measure"] == "violation"
+    assert nothing.closest["params"]["side"] == pytest.approx(np.sqrt(50.0), rel=0.02)  # the most metal it may have
+
+
+def test_with_nothing_feasible_the_stopping_rule_reads_the_least_violation():
+    rows = [{"status": "ok", "fom_mk": 50.0, "feasible": False, "margins": [m]} for m in (0.9, 0.5, 0.52, 0.6)]
+    assert flat_over_last_half(rows) == {"solves": 4, "best_at": 2, "flat": True, "measure": "violation"}
+    rows.append({"status": "ok", "fom_mk": 60.0, "feasible": False, "margins": [0.3]})
+    assert flat_over_last_half(rows)["flat"] is False
 
 
 def test_stopping_rule_reads_where_the_best_so_far_was_found():
     rows = [{"status": "ok", "fom_mk": v} for v in (50, 40, 45, 41, 42, 43)]
-    assert flat_over_last_half(rows) == {"solves": 6, "best_at": 2, "flat": True}
+    assert flat_over_last_half(rows) == {"solves": 6, "best_at": 2, "flat": True, "measure": "fom"}
     rows.append({"status": "ok", "fom_mk": 39.9})  # better by less than 1 %: still flat
     assert flat_over_last_half(rows)["flat"] is True
     rows.append({"status": "ok", "fom_mk": 35.0})  # better by 12 % at the end: not flat
-    assert flat_over_last_half(rows) == {"solves": 8, "best_at": 8, "flat": False}
+    assert flat_over_last_half(rows) == {"solves": 8, "best_at": 8, "flat": False, "measure": "fom"}
     rows += [{"status": "failed", "fom_mk": None}] * 8 + [{"status": "ok", "fom_mk": 10, "feasible": False}]
-    assert flat_over_last_half(rows) == {"solves": 17, "best_at": 8, "flat": True}  # an infeasible one never counts
+    assert flat_over_last_half(rows) == {"solves": 17, "best_at": 8, "flat": True, "measure": "fom"}  # an infeasible one never counts
 
 
 def test_max_budget_goes_on_until_flat(tmp_path):
