@@ -43,8 +43,11 @@ def test_design_study_row_square10_on_soil():
 def _surface_on_soil(plane, ground, spacing: float, height: float, freqs_hz, near_factor: float = 2.5):
     """Input impedance and gain (zenith, 45 and 75 deg in the E and H planes) of the blade
     above ``plane`` solved by the surface engine directly (no cache), per frequency."""
+    from solvers.engines.surface.dense import solve
+    from solvers.engines.surface.farfield import gain_pattern
     from solvers.engines.surface.mesh import SurfaceSettings, build_mesh
-    from solvers.engines.surface.rwg import MirrorSymmetry, Problem, gain_pattern, rwg_basis, solve
+    from solvers.engines.surface.operators import Problem
+    from solvers.engines.surface.space import MirrorSymmetry, rwg_basis
 
     mesh = build_mesh(Design(plane, ground), SurfaceSettings(spacing=spacing, plate_height=height))
     soil = (ground.eps_r, ground.sigma) if isinstance(ground, Soil) else None

@@ -13,7 +13,7 @@ def _add_moments(out: np.ndarray, row: int, col: int, g: complex, xo: float, yo:
                  ys: float) -> None:
     """Add one weighted kernel value to the six pair moments at ``out[row:row + 6, col]``:
     S0, Sx, Sy (observation point), Srr = rho . rho', Sx', Sy' (source point); the order of
-    ``rwg._moments``."""
+    ``operators.pair_moments``."""
     out[row, col] += g
     out[row + 1, col] += g * xo
     out[row + 2, col] += g * yo
@@ -29,7 +29,7 @@ def rule_moments(po: np.ndarray, wo: np.ndarray, ps: np.ndarray, ws: np.ndarray,
     (obs, src): points ``po`` [T, Qo, 3] and ``ps`` [T, Qs, 3] (each at its triangle's level),
     weights ``wo``/``ws`` (area included). Rows 0-5 the direct kernel (if ``direct``), then
     rows of the image kernel (source mirrored below z = 0, if ``image``): [6 or 12, P]. The
-    value at R ~ 0 is 0, as ``rwg._kernel``'s (a self pair's coincident points)."""
+    value at R ~ 0 is 0, as ``operators.kernel``'s (a self pair's coincident points)."""
     n = pairs.shape[0]
     out = np.zeros((6 * (int(direct) + int(image)), n), np.complex128)
     img_row = 6 if direct else 0

@@ -18,7 +18,7 @@ from groundplane.options import option
 from groundplane.shapes import GroundPlane, smallest_interior_angle
 
 from ..plate import PlateModel
-from .rwg import TriMesh
+from .grid import TriMesh
 
 
 @dataclass(frozen=True)

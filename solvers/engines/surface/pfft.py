@@ -34,20 +34,11 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
+from .excitation import Solution, feed_signs
+from .grid import Q3, Q7, Q7_TOUCHING, quadrature_points
 from .halfspace import C0, EPS0, MU0
-from .rwg import (
-    _Q3,
-    _Q7,
-    _Q7_TOUCHING,
-    CLOSE_FACTOR,
-    MirrorSymmetry,
-    Problem,
-    Solution,
-    _points,
-    feed_signs,
-    near_geometry,
-    rwg_basis,
-)
+from .operators import CLOSE_FACTOR, Problem, near_geometry
+from .space import MirrorSymmetry, rwg_basis
 
 GRID_FRACTION = 0.3  # grid spacing as a fraction of the plate's typical triangle size
 GRID_MAX = 0.25  # m: never coarser (the soil's reflected kernels vary on ~ its wavelength / 2 pi)
@@ -159,7 +150,7 @@ def build_fast_model(prob: Problem, symmetry: MirrorSymmetry | None, h: float | 
     zt = mesh.nodes[mesh.tris[:, 0], 2]
     levels, level = np.unique(np.round(zt, 9), return_inverse=True)
     grid = Grid.around(mesh.nodes[:, :2], levels, h)
-    pts, w = _points(mesh, _Q3)
+    pts, w = quadrature_points(mesh, Q3)
     ix, iy, wx, wy = grid.stencil(pts[..., :2])  # [T, 3], [T, 3, 4]
     t, q = len(mesh.tris), 3
     a = np.arange(4)
@@ -320,25 +311,25 @@ def grid_moments(model: FastModel, table: np.ndarray, pairs: np.ndarray) -> np.n
 
 def rule_moments(mesh, pairs: np.ndarray, k: float, rule, direct: bool = True, image: bool = False) -> np.ndarray:
     """The fill's product-rule moments of exp(-jkR)/R (direct rows 0-5, then image) for
-    triangle pairs, both triangles on ``rule`` (``rwg._product_rule``'s sums, compiled)."""
+    triangle pairs, both triangles on ``rule`` (``operators.product_rule``'s sums, compiled)."""
     from ._compiled import rule_moments as compiled
 
-    p, w = _points(mesh, rule)
+    p, w = quadrature_points(mesh, rule)
     return compiled(p, w, p, w, np.ascontiguousarray(pairs, dtype=np.int64), k, direct, image)
 
 
 def reflected_moments(mesh, pairs: np.ndarray, kernels, near: bool) -> tuple[np.ndarray, np.ndarray]:
     """The soil's reflected kernels over triangle pairs: (six moments of S(R_TE) [6, P], S0 of
     S(R_q - K_q) [P]) by the fill's 3 x 3 points, or (``near``) the near pairs' correction,
-    7 x 7 minus 3 x 3 (``rwg._reflected_near``'s)."""
+    7 x 7 minus 3 x 3 (``operators.reflected_near``'s)."""
     from ._compiled import reflected_rule_moments
 
     out_a = np.zeros((6, len(pairs)), complex)
     out_q = np.zeros(len(pairs), complex)
     pairs = np.ascontiguousarray(pairs, dtype=np.int64)
     args = (kernels.zetas, np.ascontiguousarray(kernels.tables), kernels.step)
-    for rule, sign in (((_Q7, 1.0), (_Q3, -1.0)) if near else ((_Q3, 1.0),)):
-        p, w = _points(mesh, rule)
+    for rule, sign in (((Q7, 1.0), (Q3, -1.0)) if near else ((Q3, 1.0),)):
+        p, w = quadrature_points(mesh, rule)
         reflected_rule_moments(p, w, p, w, pairs, *args, sign, out_a, out_q)
     return out_a, out_q
 
@@ -436,7 +427,7 @@ class FrequencyTerms:
         table = _offset_tables(model, k, imaged)
         self.spectra = _spectra(model, table)  # [nl, nl, 1 or 2, sx, sy]
         grid = grid_moments(model, table, model.pairs)  # [1 or 2, 6, P]
-        fill = rule_moments(mesh, model.pairs, k, _Q3, True, imaged)  # [6 or 12, P]
+        fill = rule_moments(mesh, model.pairs, k, Q3, True, imaged)  # [6 or 12, P]
         groups = list(model.series(k).moments(k))
         asm = model.assembly()
         nnz = asm.nnz
@@ -444,7 +435,7 @@ class FrequencyTerms:
         self.grid = {"direct": np.zeros(nnz, complex)}
         asm.add(self.near["direct"], 0, fill[:6], fill[0], c_a, c_q)
         asm.add(self.grid["direct"], 0, grid[0], grid[0, 0], c_a, c_q)
-        corr = {img: [acc - rule_moments(mesh, pairs, k, _Q3, not img, img) for i, pairs, acc in groups if i == img]
+        corr = {img: [acc - rule_moments(mesh, pairs, k, Q3, not img, img) for i, pairs, acc in groups if i == img]
                 for img in (False, True)}
         asm.add(self.near["direct"], 1, _joined(corr[False]), _joined(corr[False])[0], c_a, c_q)
         if imaged:
@@ -472,7 +463,7 @@ SERIES_FLOOR_HZ = 100e6  # and at least to 100 MHz: one build covers the low ban
 
 
 class NearSeries:
-    """The engine's accurate near-pair moments (``rwg._near_moments``) for every frequency at
+    """The engine's accurate near-pair moments (``operators.near_moments``) for every frequency at
     the cost of a few: each is the closed-form 1/R part (static) plus the smooth kernel
     (exp(-jkR) - 1)/R = sum_n (-jk)^n R^(n-1) / n! integrated by the same rules, so the
     moments of R^(n-1) are computed once per design and each frequency is a weighted sum.
@@ -491,11 +482,11 @@ class NearSeries:
             src = cen[pairs[:, 1]] * (np.array([1, 1, -1]) if img else 1)
             gap = np.linalg.norm(cen[pairs[:, 0]] - src, axis=1)
             close = gap < CLOSE_FACTOR * np.maximum(size[pairs[:, 0]], size[pairs[:, 1]])
-            for sel, rule in ((~close, _Q7), (close, _Q7_TOUCHING)):
+            for sel, rule in ((~close, Q7), (close, Q7_TOUCHING)):
                 # nearest first, so each block's series is as short as its farthest pair allows
                 ordered = pairs[sel][np.argsort(gap[sel], kind="stable")]
-                for start in range(0, len(ordered), 20000 if rule is _Q7 else 4000):
-                    pr = ordered[start:start + (20000 if rule is _Q7 else 4000)]
+                for start in range(0, len(ordered), 20000 if rule is Q7 else 4000):
+                    pr = ordered[start:start + (20000 if rule is Q7 else 4000)]
                     sing, terms = self._terms(mesh, pr, img, rule, scalar=img and self.scalar_images)
                     self.groups.append((img, pr, sing, terms))
                     self.rules.append(rule)
@@ -511,7 +502,7 @@ class NearSeries:
 
     def _terms(self, mesh, pairs: np.ndarray, image: bool, rule, scalar: bool) -> tuple[np.ndarray, np.ndarray]:
         """Static singular moments and the series' terms [n_terms, 6 (1 if ``scalar``: S0
-        only), n] of one group: the terms of :func:`rwg.smooth_moments` of ws R^(n-1), taken
+        only), n] of one group: the terms of :func:`operators.smooth_moments` of ws R^(n-1), taken
         all at once (the six moments are linear in the kernel samples, so each point pair is
         weighted once by its factors and every power of R is one matrix product), in blocks
         that each stop at their own last term."""

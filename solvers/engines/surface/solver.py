@@ -1,6 +1,6 @@
 """The surface engine as a :class:`~solvers.engines.base.Solver`: a design meshed
 into triangles (``mesh.py``), solved by the RWG EFIE over infinite PEC ground, over soil
-(Sommerfeld half-space, ``halfspace.py``) or in free space (``rwg.py``), one frequency per
+(Sommerfeld half-space, ``halfspace.py``) or in free space (``operators.py``), one frequency per
 worker process, with the same content-keyed, per-frequency resumable cache as NEC. No gain
 calibration: gain = 4 pi U / P_in. Radiated over input power is recorded per frequency as
 ``energy_balance``: 1 for a lossless model (over PEC and in free space), the radiation
@@ -20,8 +20,12 @@ from groundplane.errors import SettingsError, SolveError
 from ..base import Plan, Solver, register_engine
 from ..patterns import to_one_degree, upper_mean_gain
 from ..workers import available_memory_bytes
+from .dense import solve
+from .farfield import gain_pattern
+from .grid import TriMesh
 from .mesh import SurfaceSettings, build_mesh
-from .rwg import MirrorSymmetry, Problem, TriMesh, gain_pattern, rwg_basis, solve
+from .operators import Problem
+from .space import MirrorSymmetry, rwg_basis
 
 MODEL_VERSION = 4  # bump when the model changes: the cache key includes it
 # 2: energy_balance (radiated / input power) recorded instead of the upper-hemisphere mean gain

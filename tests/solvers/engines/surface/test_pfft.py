@@ -5,19 +5,13 @@ import pytest
 from groundplane.design import Design, InfinitePEC, Soil
 from groundplane.shapes import PRESETS
 from solvers.engines.surface import pfft
+from solvers.engines.surface.dense import impedance_matrix, solve
+from solvers.engines.surface.farfield import gain_pattern
+from solvers.engines.surface.grid import Q7, Q7_TOUCHING
 from solvers.engines.surface.halfspace import C0, reflected_integrals, soil_permittivity
 from solvers.engines.surface.mesh import SurfaceSettings, build_mesh
-from solvers.engines.surface.rwg import (
-    _Q7,
-    _Q7_TOUCHING,
-    MirrorSymmetry,
-    Problem,
-    _near_moments_rule,
-    gain_pattern,
-    impedance_matrix,
-    rwg_basis,
-    solve,
-)
+from solvers.engines.surface.operators import Problem, near_moments_rule
+from solvers.engines.surface.space import MirrorSymmetry, rwg_basis
 
 
 def _problem(ground: str, spacing: float = 1.5) -> Problem:
@@ -71,9 +65,9 @@ def test_near_series_is_the_engines_near_moments_at_any_frequency():
     series = pfft.NearSeries(prob, obs, 2 * np.pi * 50e6 / C0)
     for f in (40e6, 75e6, 100e6):
         k = 2 * np.pi * f / C0
-        assert {id(r) for r in series.rules} == {id(_Q7), id(_Q7_TOUCHING)}
+        assert {id(r) for r in series.rules} == {id(Q7), id(Q7_TOUCHING)}
         for (img, pairs, got), (_, _, sing, _), rule in zip(series.moments(k), series.groups, series.rules):
-            want = _near_moments_rule(prob.mesh, pairs, k, img, rule)
+            want = near_moments_rule(prob.mesh, pairs, k, img, rule)
             rows = len(sing)  # scalar-only image groups over soil keep S0 alone
             assert np.allclose(got[:rows], want[:rows], rtol=1e-10, atol=1e-13 * np.abs(want).max())
     with pytest.raises(ValueError, match="lower frequency"):
@@ -127,7 +121,7 @@ def test_grid_moments_are_the_two_stencils_summed_over_the_kernel_table():
     """The compiled precorrection loop against its definition: each point pair's grid value is
     the sum over the observation and source points' 4 x 4 stencils of w_o w_s K[node_o - node_s],
     node by node, and the pair's moments are those values' (``rwg._moments``)."""
-    from solvers.engines.surface.rwg import _moments
+    from solvers.engines.surface.operators import pair_moments
 
     prob = _problem("soil")
     model = pfft.fast_model(prob, True)
@@ -152,7 +146,7 @@ def test_grid_moments_are_the_two_stencils_summed_over_the_kernel_table():
                                 ws = wx[o, i, a] * wy[o, i, b] * wx[s, j, c] * wy[s, j, d]
                                 want[:, i, j] += ws * table[model.level[o], model.level[s], :, dx, dy]
         for ch in range(2):
-            m = _moments(want[ch] * w[o][:, None] * w[s][None, :], pts[o], pts[s])
+            m = pair_moments(want[ch] * w[o][:, None] * w[s][None, :], pts[o], pts[s])
             assert np.allclose(got[ch, :, p], m, rtol=1e-12, atol=1e-14 * np.abs(m).max())
 
 

@@ -5,17 +5,20 @@ import pytest
 
 from groundplane.design import Design, InfinitePEC
 from solvers.engines.patterns import upper_mean_gain
+from solvers.engines.surface.dense import solve
+from solvers.engines.surface.farfield import gain_pattern
 from solvers.engines.surface.mesh import SurfaceSettings, build_mesh, strip_dipole_mesh
-from solvers.engines.surface.rwg import Problem, gain_pattern, potential_integrals, rwg_basis, solve
+from solvers.engines.surface.operators import Problem, potential_integrals
+from solvers.engines.surface.space import rwg_basis
 
 STRIP_LENGTH, STRIP_WIDTH = 1.9986, 0.01  # half a wavelength at 75 MHz, 1 cm wide
 
 
 def _fine_quadrature(verts: np.ndarray, n: int = 60):
     """Points and weights of the 7-point rule on n^2 sub-triangles (a reference to ~1e-6)."""
-    from solvers.engines.surface.rwg import _Q7
+    from solvers.engines.surface.grid import Q7
 
-    bary, w = _Q7
+    bary, w = Q7
     pts, wts = [], []
     a, b, c = verts
     for i in range(n):
@@ -128,7 +131,7 @@ def test_zenith_gain_converges_with_the_blade_mesh():
 
 
 def test_feed_orientation_and_triangle_order_do_not_matter():
-    from solvers.engines.surface.rwg import TriMesh
+    from solvers.engines.surface.grid import TriMesh
 
     prob, sol = _blade(cells=(4, 4))
     m = prob.mesh
@@ -141,7 +144,7 @@ def test_feed_orientation_and_triangle_order_do_not_matter():
 @pytest.mark.parametrize("preset_name", [None, "sawtooth-10-8"])
 def test_mirror_symmetric_solve_is_the_full_solve(preset_name):
     from groundplane.shapes import preset
-    from solvers.engines.surface.rwg import MirrorSymmetry
+    from solvers.engines.surface.space import MirrorSymmetry
 
     plane = preset(preset_name) if preset_name else None
     mesh = build_mesh(Design(plane, InfinitePEC()), SurfaceSettings(blade_cells=(4, 4), spacing=2.0))
@@ -153,7 +156,8 @@ def test_mirror_symmetric_solve_is_the_full_solve(preset_name):
 
 
 def test_an_asymmetric_mesh_has_no_mirror_reduction():
-    from solvers.engines.surface.rwg import MirrorSymmetry, TriMesh
+    from solvers.engines.surface.grid import TriMesh
+    from solvers.engines.surface.space import MirrorSymmetry
 
     mesh = build_mesh(Design(None, InfinitePEC()), SurfaceSettings(blade_cells=(4, 4)))
     nodes = mesh.nodes.copy()
@@ -167,7 +171,8 @@ def test_galerkin_matrix_is_symmetric_and_stable_under_tiny_moves():
     points once wiped out self terms on some meshes (the answer jumped 2x for a 1 mm move)."""
     from groundplane.design import FreeSpace
     from groundplane.shapes import Square
-    from solvers.engines.surface.rwg import TriMesh, impedance_matrix
+    from solvers.engines.surface.dense import impedance_matrix
+    from solvers.engines.surface.grid import TriMesh
 
     mesh = build_mesh(Design(Square(4.0), FreeSpace()), SurfaceSettings(spacing=0.5, blade_cells=(8, 6)))
     prob = Problem(mesh, rwg_basis(mesh), "free")
@@ -243,7 +248,7 @@ def test_strip_dipole_over_soil_against_nec_sommerfeld(height, ground):
     """Impedance and pattern of a strip dipole over soil against NEC-2's Sommerfeld ground
     (the same wire as in free space: NEC and this engine differ there by 0.2 + j1.5 ohm)."""
     from solvers.engines.nec.engine import engine_call
-    from solvers.engines.surface.rwg import TriMesh
+    from solvers.engines.surface.grid import TriMesh
 
     strip = strip_dipole_mesh(STRIP_LENGTH, STRIP_WIDTH, 80)
     mesh = TriMesh(strip.nodes + np.array([0.0, 0.0, height]), strip.tris, strip.feed_edges)

@@ -6,8 +6,9 @@ from groundplane.design import Design, InfinitePEC, Soil
 from groundplane.errors import SettingsError
 from groundplane.shapes import PRESETS, PolygonPlane, Square, Star
 from solvers.engines import ENGINES, make_solver
+from solvers.engines.surface.grid import TriMesh
 from solvers.engines.surface.mesh import SurfaceSettings, plate_mesh
-from solvers.engines.surface.rwg import TriMesh, rwg_basis
+from solvers.engines.surface.space import rwg_basis
 
 
 @pytest.mark.parametrize("plane", [PRESETS["square-10"], PRESETS["plus-15"], PRESETS["sawtooth-20-16"],

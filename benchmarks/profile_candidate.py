@@ -1,0 +1,101 @@
+"""Where one search candidate's time goes: a design solved on the five soils of the ``soil``
+scenario set at the search level, in this process (``workers=0``, so cProfile sees every call),
+the beam cache cold, the Sommerfeld tables cold (``--warm-tables``: a first solve fills them,
+as a search's first design does, and the profile is of a second).
+
+    .venv/bin/python benchmarks/profile_candidate.py [--design sawtooth-20-16] [--mesh 0.7]
+        [--freqs 55:97:3] [--warm-tables] [--top 30] [-o results/bench/profile_candidate.txt]
+
+Prints the wall time, the share of each phase (the functions named in PHASES, cumulative) and
+the top functions by own time. Never fails on a time.
+"""
+from __future__ import annotations
+
+import argparse
+import cProfile
+import io
+import os
+import pstats
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SOILS = [(3.5, 0.02), (2.5, 0.005), (2.5, 0.05), (5.0, 0.005), (5.0, 0.05)]
+# phase -> (file name, function name): the cumulative time of each, summed over the ones named
+PHASES = {
+    "design model (mesh, basis, grid, near lists, series)": (("pfft.py", "fast_model"),),
+    "Sommerfeld tables (every soil, one J0 matrix)": (("rwg.py", "reflected_kernels_many"),),
+    "soil-independent terms of a frequency": (("pfft.py", "frequency_terms"),),
+    "a soil's operator (reflected tables, moments, CSR)": (("pfft.py", "__init__@FastOperator"),),
+    "near-matrix LU (preconditioner)": (("_decomp_lu.py", "splu"), ("linsolve.py", "splu")),
+    "GMRES": (("_isolve", "gmres"), ("iterative.py", "gmres")),
+    "far field": (("rwg.py", "gain_pattern"), ("farfield.py", "gain_pattern")),
+}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--design", default="sawtooth-20-16")
+    ap.add_argument("--mesh", type=float, default=0.7)
+    ap.add_argument("--freqs", default="55:97:3")
+    ap.add_argument("--warm-tables", action="store_true")
+    ap.add_argument("--top", type=int, default=30)
+    ap.add_argument("-o", "--out")
+    args = ap.parse_args()
+    os.environ["GROUNDPLANE_CACHE"] = tempfile.mkdtemp(prefix="gp-profile-")
+    sys.path.insert(0, str(ROOT))
+    from groundplane.design import Design, Soil
+    from groundplane.options import parse_freqs
+    from groundplane.shapes import PRESETS, from_file
+    from solvers.engines.surface import SurfaceSettings, SurfaceSolver
+
+    plane = from_file(args.design) if args.design.endswith(".json") else PRESETS[args.design]
+    freqs = parse_freqs(args.freqs)
+    designs = [Design(plane, Soil(*s)) for s in SOILS]
+
+    def solver():
+        return SurfaceSolver(SurfaceSettings(spacing=args.mesh), workers=0, use_cache=False)
+
+    if args.warm_tables:
+        solver().solve_many(designs, freqs[:1])  # the tables of the first frequency's soils land on disk
+    prof = cProfile.Profile()
+    t0 = time.perf_counter()
+    prof.enable()
+    solver().solve_many(designs, freqs)
+    prof.disable()
+    wall = time.perf_counter() - t0
+    stats = pstats.Stats(prof)
+    lines = [f"{args.design} at {args.mesh:g} m, {len(freqs)} frequencies ({args.freqs}), 5 soils together, one "
+             f"process, beam cache cold, Sommerfeld tables {'warm' if args.warm_tables else 'cold'}: {wall:.1f} s",
+             "", "phase (cumulative, the outermost call of the functions named):"]
+    fast_operator_init = _line_of("solvers.engines.surface.pfft", "FastOperator")
+    for phase, names in PHASES.items():
+        t = 0.0
+        for file, name in names:
+            for (f, line, fn), (cc, nc, tt, ct, callers) in stats.stats.items():
+                if name == "__init__@FastOperator":
+                    hit = f.endswith(file) and fn == "__init__" and line == fast_operator_init
+                else:
+                    hit = file in f and fn == name
+                t += ct if hit else 0.0
+        lines.append(f"  {phase:54s} {t:8.1f} s  {100 * t / wall:5.1f} %")
+    buf = io.StringIO()
+    pstats.Stats(prof, stream=buf).sort_stats("tottime").print_stats(args.top)
+    lines += ["", "top functions by own time:", buf.getvalue()]
+    text = "\n".join(lines)
+    print(text)
+    if args.out:
+        Path(args.out).write_text(text)
+
+
+def _line_of(module: str, cls: str) -> int:
+    """The first line of ``cls.__init__`` in ``module`` (cProfile names methods by line)."""
+    import importlib
+
+    return getattr(importlib.import_module(module), cls).__init__.__code__.co_firstlineno
+
+
+if __name__ == "__main__":
+    main()
