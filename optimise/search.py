@@ -246,9 +246,10 @@ def _confirm(ev: "_Evaluator", fine: EvalSettings, out: Path, top: int, progress
     level = hashlib.sha256(json.dumps(fine.identity(), sort_keys=True).encode()).hexdigest()[:16]
     done = {History.key(r["integer"], r["x"]): r for r in read_jsonl(out / "confirm.jsonl")
             if r.get("confirm_level") == level}  # a rerun at another level re-solves
-    # history rows are distinct designs already (a replayed x is never added twice)
-    picked = sorted((r for r in ev.counted if r["status"] == "ok" and r.get("feasible", True)
-                     and r["area_m2"] <= ev.max_area * (1 + 1e-9)), key=lambda r: r["fom_mk"])[:top]
+    # distinct planes: rows of one outline under other parameters (solved before a search knew them for one) once
+    ranked = sorted((r for r in ev.counted if r["status"] == "ok" and r.get("feasible", True)
+                     and r["area_m2"] <= ev.max_area * (1 + 1e-9)), key=lambda r: r["fom_mk"])
+    picked = list({row_plane(ev.fam, r).outline_key(): r for r in reversed(ranked)}.values())[::-1][:top]
     rows = []
     for i, r in enumerate(picked, 1):
         k = History.key(r["integer"], r["x"])

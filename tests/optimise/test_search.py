@@ -252,3 +252,28 @@ def test_the_convergence_curve_is_the_best_feasible_so_far():
             {"status": "failed", "fom_mk": None}, {"status": "ok", "fom_mk": 80.0}]
     solved = solved_rows(rows)
     assert len(solved) == 4 and best_so_far(solved) == [math.inf, 90.0, 90.0, 80.0]
+
+
+def test_the_confirmation_re_solves_distinct_planes(tmp_path):
+    """The robust front confirmed one plane twice at the finest level (two rows of one outline)."""
+    from optimise.search import History, _confirm, _Evaluator
+
+    fam = family("teeth-xy")
+    ev_fn, calls = _fake_eval(lambda p: 100.0 + p.metal_area / 100)
+    ev = _Evaluator(fam, "teeth-xy", 900.0, EvalSettings().with_spacing(1.0), History(tmp_path / "h.jsonl"), ev_fn,
+                    progress=False)
+    twins = [_teeth_xy_x(fam), _teeth_xy_x(fam, base_y=5.0)]
+    for i, x in enumerate(twins):  # as an old history holds them: each solved and counted
+        row = {"integer": 2, "x": list(x), "params": fam.params(x, 2), "area_m2": fam.area(x, 2), "status": "ok",
+               "fom_mk": 120.0, "objective": 120.0, "name": f"twin {i}"}
+        ev.hist.add(row)
+        ev.counted.append(row)
+    ev(_teeth_xy_x(fam, height_y=1.0), np.zeros(0), 2)
+    rows = _confirm(ev, EvalSettings(), tmp_path, 2, progress=False)
+    assert len(rows) == 2 and len({row_plane_key(fam, r) for r in rows}) == 2
+
+
+def row_plane_key(fam, r):
+    from optimise.search import row_plane
+
+    return row_plane(fam, r).outline_key()
