@@ -159,7 +159,7 @@ def test_an_outline_with_a_sliver_angle_is_refused_not_meshed_until_memory_runs_
 
 def test_soils_of_one_design_are_solved_together_and_cached_each_as_alone(tmp_path, monkeypatch):
     """solve_many shares one frequency's work between the soils of a design: the same beams as
-    one solve per soil, each cached under its own key (a later single solve is a cache hit),
+    one solve per soil (to GMRES's tolerance where a soil borrows the first one's LU), each cached under its own key (a later single solve is a cache hit),
     a duplicate solved once, a design of another geometry beside them solved on its own."""
     monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path))
     settings = SurfaceSettings(spacing=1.5, blade_cells=(4, 4))
@@ -170,8 +170,13 @@ def test_soils_of_one_design_are_solved_together_and_cached_each_as_alone(tmp_pa
     assert len({solver.share_key(d) for d in designs[:3]}) == 1 and solver.share_key(designs[4]) != solver.share_key(designs[0])
     together = solver.solve_many(designs, [60.0, 80.0])
     alone = make_solver("surface", settings, workers=0, use_cache=False)
-    for d, beam in zip(designs, together):
-        assert np.allclose(beam.gain, alone.solve(d, [60.0, 80.0]).gain, rtol=1e-9)
+    for k, (d, beam) in enumerate(zip(designs, together)):
+        own = alone.solve(d, [60.0, 80.0]).gain
+        if k in (0, 3, 4):  # the group's first soil (and a plane of its own) factor their own LU: the same solve
+            assert np.allclose(beam.gain, own, rtol=1e-9)
+        else:  # a soil that borrows the LU converges along another path: equal to GMRES's tolerance, not bitwise
+            gap = np.abs(beam.gain - own).max() / own.max()
+            assert 0 <= gap < 1e-6, f"soil {d.ground}: shared-LU gain {gap:.1e} (relative to peak) from its own LU"
         assert solver.cached(d, [60.0, 80.0]) is not None
     assert together[3] is together[0] or np.array_equal(together[3].gain, together[0].gain)
     assert make_solver("surface", SurfaceSettings(spacing=1.5, blade_cells=(4, 4), method="dense")).share_key(
