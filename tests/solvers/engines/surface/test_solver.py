@@ -1,4 +1,6 @@
 """The surface engine as an engine: plate meshes, the cached solve, the CLI, refusals."""
+import time
+
 import numpy as np
 import pytest
 
@@ -200,3 +202,30 @@ def test_sommerfeld_tables_are_kept_and_a_damaged_file_is_built_again(tmp_path, 
     assert np.array_equal(again.tables, built.tables)
     many = halfspace.ReflectedKernels.build_many(70e6, [(3.5, 0.02), (2.5, 0.005)], zetas, 8.0)
     assert np.allclose(many[0].tables, built.tables, rtol=1e-12, atol=1e-15)
+
+
+def test_near_pairs_are_every_pair_within_reach_and_scale_with_the_pairs_kept():
+    """The near pairs equal the brute-force set (closer than near_factor times the larger size,
+    images mirrored below z = 0), with sizes over three decades; a plane of millimetre triangles
+    beside metre ones (a 1.4 mm neck a search proposed) is paired in seconds, not killed for memory."""
+    from groundplane.shapes import from_dict
+    from solvers.engines.surface.mesh import build_mesh
+    from solvers.engines.surface.operators import Problem
+
+    rng = np.random.default_rng(3)
+    cen = np.column_stack([rng.uniform(0, 20, 400), rng.uniform(0, 20, 400), np.full(400, 0.005)])
+    size = 10 ** rng.uniform(-3, 0, 400)
+    prob = Problem.__new__(Problem)
+    prob.near_factor = 2.5
+    for image in (False, True):
+        src = cen * np.array([1, 1, -1]) if image else cen
+        d = np.linalg.norm(cen[:, None] - src[None], axis=-1)
+        want = np.argwhere((d < 2.5 * np.maximum(size[:, None], size[None])) | (np.eye(400, dtype=bool) & (not image)))
+        assert np.array_equal(prob._near_pairs(cen, size, image), want)
+    neck = from_dict(dict(shape="teeth-xy", side=19.52, teeth_per_side=4, chamfer=0.18, base_x=4.36, height_x=1.27,
+                          tip_x=0.16, base_y=1.21, height_y=1.84, tip_y=0.71, base_d=0.0014, height_d=9.74, tip_d=0.71))
+    mesh = build_mesh(Design(neck, Soil()), SurfaceSettings(spacing=0.7))
+    assert len(mesh.tris) > 30000 and mesh.sizes.max() / mesh.sizes.min() > 300
+    t0 = time.perf_counter()
+    pairs = prob._near_pairs(mesh.centroids, mesh.sizes, False)
+    assert len(pairs) < 60 * len(mesh.tris) and time.perf_counter() - t0 < 60
