@@ -194,6 +194,28 @@ def thin_fraction(plane: GroundPlane, spacing: float) -> float:
     return float(1.0 - kept.area / outline.area)
 
 
+MAX_STRANDED_CELLS = 1.0  # metal may lie at most this many cells from metal two cells wide: every Table 3 preset
+# is within 0.12 cells at 0.5-1 m; the robust front's 400 m^2 answer of 2026-12-02 had 10.7 m spikes on 4.7 cm necks (15
+# cells at 0.7 m), and a search candidate a 1.4 mm neck that the surface mesher filled with 60 608 triangles
+
+
+def stranded_metal(plane: GroundPlane, spacing: float) -> tuple[float, tuple[float, float]]:
+    """How far (m) the metal reaches from the metal at least two cells wide, and the farthest
+    point: a long strip or a neck narrower than two cells holds little area (the thin share
+    misses it) but reaches far."""
+    import shapely
+
+    outline = plane.outline()
+    kept = outline.buffer(-spacing).buffer(spacing, join_style="mitre").intersection(outline)
+    thin = outline.difference(kept)
+    if thin.is_empty or kept.is_empty:
+        return (0.0, (0.0, 0.0)) if thin.is_empty else (math.inf, (0.0, 0.0))
+    points = shapely.points(shapely.get_coordinates(shapely.segmentize(thin, spacing / 4)))
+    far = shapely.distance(kept, points)
+    i = int(np.argmax(far))
+    return float(far[i]), (float(points[i].x), float(points[i].y))
+
+
 def too_fine_for(plane: GroundPlane, spacing: float) -> str | None:
     """Why a mesh at ``spacing`` cannot represent ``plane`` on any engine (None if it can):
     metal narrower than two cells has at most one grid line (or triangle) across it. An
@@ -205,6 +227,10 @@ def too_fine_for(plane: GroundPlane, spacing: float) -> str | None:
     if thin > MAX_THIN_FRACTION:  # strips (long thin teeth) have no sharp vertex for the rule above
         return (f"{100 * thin:.0f} % of the metal is narrower than two mesh cells ({2 * spacing:g} m; at most "
                 f"{100 * MAX_THIN_FRACTION:.0f} %)")
+    reach, (x, y) = stranded_metal(plane, spacing)
+    if reach > MAX_STRANDED_CELLS * spacing:  # a neck or strip: a wire the mesh (and a 5 cm welded mesh) cannot make
+        return (f"metal narrower than two mesh cells ({2 * spacing:g} m) reaches {reach:.2f} m from the wider metal "
+                f"(to ({x:.2f}, {y:.2f}) m; at most {MAX_STRANDED_CELLS:g} cell)")
     return None
 
 
@@ -326,6 +352,7 @@ def optimise(
                     evaluate_fn or _default_evaluate(scenarios, constraints, progress), progress, budget=budget,
                     constraints=constraints)
     ev.backfill_outlines()
+    ev.refuse_again()
     if strategy == "global":
         _global_search(fam, ints, ev, algorithm, out, executor, scheduler, seeds)
     else:
@@ -703,6 +730,36 @@ class _Evaluator:
                     self.hist.outlines.setdefault(row_plane(self.fam, r).outline_key(), r)
                 except ShapeError:
                     continue
+
+    def refuse_again(self) -> None:
+        """Hold the history's solved rows to today's rules: a design a newer check refuses (a row
+        solved before the check existed) is replayed as refused, not as a FoM nlopt or the answer
+        may take. The file keeps its rows; they are reclassified in memory on every resume."""
+        refused = []
+        for r in self.hist.rows:
+            if r["status"] not in ("ok", "failed") or "same_metal_as" in r:
+                continue
+            try:
+                why = self.reason(np.asarray(r["x"], float), r.get("integer"))
+            except ShapeError as exc:
+                why = str(exc)
+            if why is not None:
+                refused.append(r)
+                r.update({"status": "invalid", "fom_mk": None, "error": f"refused on resume: {why}",
+                          "solved_before": {"fom_mk": r.get("fom_mk"), "status": r["status"]}})
+        for r in self.hist.rows:  # a twin of a refused row is refused with it
+            if r.get("same_metal_as") and id(self.hist.rows[r["same_metal_as"] - 1]) in {id(x) for x in refused}:
+                r.update({"status": "invalid", "fom_mk": None, "error": "refused on resume with its twin"})
+        if refused:
+            gone = {id(x) for x in refused}
+            self.hist.outlines = {k: v for k, v in self.hist.outlines.items() if id(v) not in gone}
+            penalty = self.penalty()
+            for r in self.hist.rows:
+                if r["status"] == "invalid":
+                    r["objective"] = penalty
+            if self.progress:
+                print(f"  {len(refused)} solved row(s) of the history are refused by today's checks (first: "
+                      f"{refused[0]['error']}); replayed as refused", file=sys.stderr, flush=True)
 
     def reason(self, x: np.ndarray, n: int | None) -> str | None:
         """Why x cannot be solved (None if it can): invalid, over the budget, or finer than the mesh."""

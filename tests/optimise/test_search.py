@@ -183,6 +183,43 @@ def test_thin_strips_are_too_fine_for_the_mesh():
         assert thin_fraction(plane, 1.0) < 0.01, name
 
 
+def test_a_neck_narrower_than_the_mesh_is_refused_and_a_history_holding_one_is_held_to_it(tmp_path, capsys):
+    """A tooth on a neck narrower than two cells (the robust front's 400 m^2 answer of 2026-12-02: 10.7 m spikes on
+    4.7 cm necks) holds little area, so the thin share missed it; how far the thin metal reaches does not. A
+    history solved before the rule is replayed with such rows refused: never the best, the file untouched."""
+    from groundplane.shapes import PRESETS, from_dict
+    from optimise.search import MAX_STRANDED_CELLS, stranded_metal, thin_fraction, too_fine_for
+
+    spikes = dict(shape="teeth-xy", side=19.65, teeth_per_side=4, chamfer=1.09, base_x=2.73, height_x=0.73,
+                  tip_x=0.65, base_y=1.95, height_y=0.0, tip_y=0.31, base_d=0.047, height_d=10.65, tip_d=0.30)
+    plane = from_dict(spikes)
+    reach, (x, y) = stranded_metal(plane, 0.7)
+    assert thin_fraction(plane, 0.7) < 0.10 and reach > 10 and abs(x) > 14 and abs(y) > 14
+    assert "reaches 10." in too_fine_for(plane, 0.7)
+    for name, preset in PRESETS.items():
+        assert stranded_metal(preset, 0.7)[0] <= MAX_STRANDED_CELLS * 0.7 and too_fine_for(preset, 0.7) is None, name
+    square = from_dict(dict(shape="teeth-xy", side=19.0, teeth_per_side=4, chamfer=0.0, base_x=2.0, height_x=0.0,
+                            tip_x=0.0, base_y=2.0, height_y=0.0, tip_y=0.0, base_d=0.0, height_d=0.0, tip_d=0.0))
+    fam = family("teeth-xy")
+
+    def row(p, fom):
+        x = [p.params()[k] for k in fam.names]
+        return {"integer": 4, "x": x, "area_m2": p.metal_area, "status": "ok", "fom_mk": fom, "objective": fom,
+                "phase": "explore", "mesh_m": 0.7, "feasible": True}
+    ev, calls = _fake_eval(lambda p: 500.0)
+    optimise("teeth-xy", 400.0, EvalSettings().with_spacing(0.7), tmp_path, budget=1, evaluate_fn=ev,
+             progress=False, integer_values=(4,))
+    lines = [json.dumps(row(plane, 50.0)), json.dumps(row(square, 400.0))]
+    with open(tmp_path / "history.jsonl", "a") as f:
+        f.write("\n".join(lines) + "\n")
+    before = (tmp_path / "history.jsonl").read_text()
+    res = optimise("teeth-xy", 400.0, EvalSettings().with_spacing(0.7), tmp_path, budget=1,
+                   evaluate_fn=ev, progress=True, integer_values=(4,))
+    assert res.best is None or res.best["fom_mk"] != 50.0
+    assert "refused by today's checks" in capsys.readouterr().err
+    assert (tmp_path / "history.jsonl").read_text().startswith(before)
+
+
 def test_history_lines_of_the_wrong_shape_are_evaluated_again(tmp_path, capsys):
     """Issue 25 item 8: valid JSON of the wrong shape in history.jsonl was a traceback."""
     ev, calls = _fake_eval(lambda p: 100.0 + (p.side - 12.0) ** 2)
