@@ -644,7 +644,12 @@ def frequency_terms(model: FastModel, freq_hz: float) -> FrequencyTerms:
 
 
 SHARE_PRECONDITIONER = True  # the soils of one design at one frequency share one near-matrix LU
+WARM_START = True  # a soil's GMRES starts from the previous soil's currents of the design at that frequency
+# The near matrix is structurally symmetric (its pairs are), so a minimum-degree order on A^T + A
+# fills less than SuperLU's default COLAMD (sawtooth-20-16 at 0.7 m: 0.74 vs 0.88 M, factor 2.2x faster)
+LU_ORDERING = "MMD_AT_PLUS_A"
 _LU: dict[tuple[int, float], tuple] = {}
+_START: dict[tuple[int, float], tuple] = {}
 
 
 def near_lu(model: FastModel, op: FastOperator, freq_hz: float):
@@ -657,8 +662,21 @@ def near_lu(model: FastModel, op: FastOperator, freq_hz: float):
     key = (id(model), float(freq_hz))
     if not SHARE_PRECONDITIONER or _LU.get(key, (None,))[0] is not model:  # the entry holds its model: no id reused
         _LU.clear()
-        _LU[key] = (model, spla.splu((op.near @ model.u).tocsc()))
+        _LU[key] = (model, spla.splu((op.near @ model.u).tocsc(), permc_spec=LU_ORDERING))
     return _LU[key][1]
+
+
+def warm_start(model: FastModel, freq_hz: float, a: np.ndarray | None = None) -> np.ndarray | None:
+    """The last solved unknowns of ``model`` at ``freq_hz`` in this process (the design's previous
+    soil: its currents differ from the next soil's by the soil's small share of the fields, so
+    GMRES starts closer than from zero); with ``a``, keep those instead. One entry, like the LU."""
+    key = (id(model), float(freq_hz))
+    if a is not None:
+        _START.clear()
+        _START[key] = (model, a)
+        return a
+    hit = _START.get(key, (None, None))
+    return hit[1] if WARM_START and hit[0] is model else None
 
 
 def solve_fast(prob: Problem, freq_hz: float, symmetric: bool) -> tuple[Solution, FastStats]:
@@ -683,13 +701,14 @@ def solve_fast(prob: Problem, freq_hz: float, symmetric: bool) -> tuple[Solution
     def tick(_: np.ndarray) -> None:
         count[0] += 1
 
-    a, info = spla.gmres(a_op, vr, M=m_op, rtol=GMRES_RTOL, atol=0.0, restart=GMRES_RESTART, maxiter=10,
-                         callback=tick, callback_type="pr_norm")
+    a, info = spla.gmres(a_op, vr, x0=warm_start(model, freq_hz), M=m_op, rtol=GMRES_RTOL, atol=0.0,
+                         restart=GMRES_RESTART, maxiter=10, callback=tick, callback_type="pr_norm")
     residual = float(np.linalg.norm(a_op.matvec(a) - vr) / np.linalg.norm(vr))
     if info != 0 or not np.isfinite(residual) or residual > 10 * GMRES_RTOL:
         raise ArithmeticError(f"surface engine (fast): GMRES did not converge at {freq_hz / 1e6:g} MHz "
                               f"({count[0]} iterations, relative residual {residual:.1e}); "
                               "try --method dense")
+    warm_start(model, freq_hz, a)
     i = u @ a
     i_in = complex(np.sum(sign * prob.rwg.length[prob.rwg.feed] * i[prob.rwg.feed]))
     return Solution(freq_hz, i, i_in, prob.mesh.feed_volts), FastStats(count[0], residual, model.symmetry is not None)
