@@ -1,7 +1,9 @@
 """Where one search candidate's time goes: a design solved on the five soils of the ``soil``
 scenario set at the search level, in this process (``workers=0``, so cProfile sees every call),
 the beam cache cold, the Sommerfeld tables cold (``--warm-tables``: a first solve fills them,
-as a search's first design does, and the profile is of a second).
+as a search's first design does, and the profile is of a second). One BLAS thread, as in a search's
+workers: two OpenBLAS threads beside other work spin, and had made SuperLU look like 84 % of a
+candidate (2026-12-02) when on one thread it is a few per cent.
 
     .venv/bin/python benchmarks/profile_candidate.py [--design sawtooth-20-16] [--mesh 0.7]
         [--freqs 55:97:3] [--warm-tables] [--top 30] [-o results/bench/profile_candidate.txt]
@@ -26,12 +28,12 @@ SOILS = [(3.5, 0.02), (2.5, 0.005), (2.5, 0.05), (5.0, 0.005), (5.0, 0.05)]
 # phase -> (file name, function name): the cumulative time of each, summed over the ones named
 PHASES = {
     "design model (mesh, basis, grid, near lists, series)": (("pfft.py", "fast_model"),),
-    "Sommerfeld tables (every soil, one J0 matrix)": (("rwg.py", "reflected_kernels_many"),),
+    "Sommerfeld tables (every soil, one J0 matrix)": (("operators.py", "reflected_kernels_many"),),
     "soil-independent terms of a frequency": (("pfft.py", "frequency_terms"),),
     "a soil's operator (reflected tables, moments, CSR)": (("pfft.py", "__init__@FastOperator"),),
     "near-matrix LU (preconditioner)": (("_decomp_lu.py", "splu"), ("linsolve.py", "splu")),
     "GMRES": (("_isolve", "gmres"), ("iterative.py", "gmres")),
-    "far field": (("rwg.py", "gain_pattern"), ("farfield.py", "gain_pattern")),
+    "far field": (("farfield.py", "gain_pattern"),),
 }
 
 
@@ -60,6 +62,9 @@ def main() -> None:
 
     if args.warm_tables:
         solver().solve_many(designs, freqs[:1])  # the tables of the first frequency's soils land on disk
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(1)  # as the solver's worker processes do
     prof = cProfile.Profile()
     t0 = time.perf_counter()
     prof.enable()

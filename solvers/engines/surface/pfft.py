@@ -658,11 +658,15 @@ def near_lu(model: FastModel, op: FastOperator, freq_hz: float):
     (GMRES still solves each soil's own operator to ``GMRES_RTOL``). The factorisation was 84 % of
     a search candidate's time on five soils (``benchmarks/profile_candidate.py``)."""
     import scipy.sparse.linalg as spla
+    from threadpoolctl import threadpool_limits
 
     key = (id(model), float(freq_hz))
     if not SHARE_PRECONDITIONER or _LU.get(key, (None,))[0] is not model:  # the entry holds its model: no id reused
         _LU.clear()
-        _LU[key] = (model, spla.splu((op.near @ model.u).tocsc(), permc_spec=LU_ORDERING))
+        # one BLAS thread: SuperLU's supernodes are small, and two OpenBLAS threads beside other work spin (measured
+        # on sawtooth-20-16 at 0.7 m with a search running: 0.6-15 s a factorisation, 0.2 s on one thread)
+        with threadpool_limits(1):
+            _LU[key] = (model, spla.splu((op.near @ model.u).tocsc(), permc_spec=LU_ORDERING))
     return _LU[key][1]
 
 
