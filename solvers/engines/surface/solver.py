@@ -56,16 +56,36 @@ def check_memory(n_unknowns: int, n_triangles: int, processes: int, label: str, 
                             "--blade-cells, or fewer --workers.")
 
 
-def check_fast_memory(prob: Problem, symmetry: MirrorSymmetry | None, processes: int, label: str) -> None:
-    """Refuse, before any work, a fast solve whose workers would not fit in memory."""
+OVER_REFINED = 4.0  # plate triangles per the count its area needs at the spacing: the presets have 1.5-1.7
+
+
+def finer_than_asked(mesh: TriMesh, spacing: float) -> str:
+    """Why the plate's mesh has far more triangles than its area needs at ``spacing`` (a feature
+    the mesher must follow, far narrower than the mesh), naming its smallest triangle; '' if not."""
+    plate = mesh.centroids[:, 2] < 0.5 * spacing  # the blade stands 1 m up; the sheet mm above the soil
+    needed = mesh.areas[plate].sum() / (np.sqrt(3) / 4 * spacing ** 2)
+    if not plate.any() or plate.sum() <= OVER_REFINED * max(needed, 1.0):
+        return ""
+    i = np.flatnonzero(plate)[np.argmin(mesh.sizes[plate])]
+    x, y = mesh.centroids[i, :2]
+    return (f" Its plate takes {int(plate.sum())} triangles where its area needs about {needed:.0f} at {spacing:g} m: "
+            f"a feature about {1000 * mesh.sizes[i]:.0f} mm across near ({x:.2f}, {y:.2f}) m, far narrower than the "
+            "mesh, sets their size; widen or remove it (a coarser --mesh does not help).")
+
+
+def check_fast_memory(prob: Problem, symmetry: MirrorSymmetry | None, processes: int, label: str,
+                      spacing: float | None = None) -> None:
+    """Refuse, before any work, a fast solve whose workers would not fit in memory (saying so
+    when a feature far finer than the mesh ``spacing`` is what makes it large)."""
     from .pfft import memory_estimate
 
     need = memory_estimate(prob, symmetry) * processes
     have = available_memory_bytes()
     if have is not None and need > 0.8 * have:
+        why = finer_than_asked(prob.mesh, spacing) if spacing else ""
         raise SettingsError(f"{label}: the fast solve of {prob.n} unknowns needs about {need / 2**30:.1f} GiB on "
-                            f"{processes} process(es); {have / 2**30:.1f} GiB is available. Use a coarser --mesh, "
-                            "or fewer --workers.")
+                            f"{processes} process(es); {have / 2**30:.1f} GiB is available."
+                            + (why or " Use a coarser --mesh, or fewer --workers."))
 
 
 def _soil(design: Design) -> tuple[float, float] | None:
@@ -196,7 +216,7 @@ class SurfaceSolver(Solver):
             check_memory(rwg.n, len(mesh.tris), self.processes, design.label(), symmetry is not None)
         else:
             check_fast_memory(Problem(mesh, rwg, design.ground_kind, self.settings.near_factor, _soil(design)),
-                              symmetry, self.processes, design.label())
+                              symmetry, self.processes, design.label(), self.settings.spacing)
         what = design.plane.describe() if design.plane else "blade"
         where = {"pec": "over PEC", "soil": "over soil", "free": "in free space"}[design.ground_kind]
         label = f"{what} {where} ({rwg.n} unknowns)"

@@ -229,3 +229,18 @@ def test_near_pairs_are_every_pair_within_reach_and_scale_with_the_pairs_kept():
     t0 = time.perf_counter()
     pairs = prob._near_pairs(mesh.centroids, mesh.sizes, False)
     assert len(pairs) < 60 * len(mesh.tris) and time.perf_counter() - t0 < 60
+
+
+def test_a_plane_meshed_far_finer_than_asked_says_which_feature_does_it():
+    """A refusal for memory names the cause when a feature far narrower than the mesh sets the
+    triangles' size (a coarser --mesh would not help); the paper's presets are never named."""
+    from groundplane.shapes import from_dict
+    from solvers.engines.surface.mesh import build_mesh
+    from solvers.engines.surface.solver import finer_than_asked
+
+    neck = from_dict(dict(shape="teeth-xy", side=19.52, teeth_per_side=4, chamfer=0.18, base_x=4.36, height_x=1.27,
+                          tip_x=0.16, base_y=1.21, height_y=1.84, tip_y=0.71, base_d=0.0014, height_d=9.74, tip_d=0.71))
+    why = finer_than_asked(build_mesh(Design(neck, Soil()), SurfaceSettings(spacing=0.7)), 0.7)
+    assert "far narrower than the mesh" in why and "(16." in why
+    for name in ("square-10", "sawtooth-20-16", "extended"):
+        assert finer_than_asked(build_mesh(Design(PRESETS[name], Soil()), SurfaceSettings(spacing=1.0)), 1.0) == "", name
