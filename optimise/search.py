@@ -747,11 +747,11 @@ class _Evaluator:
                 refused.append(r)
                 r.update({"status": "invalid", "fom_mk": None, "error": f"refused on resume: {why}",
                           "solved_before": {"fom_mk": r.get("fom_mk"), "status": r["status"]}})
+        gone = {id(x) for x in refused}
         for r in self.hist.rows:  # a twin of a refused row is refused with it
-            if r.get("same_metal_as") and id(self.hist.rows[r["same_metal_as"] - 1]) in {id(x) for x in refused}:
+            if r.get("same_metal_as") and id(self.hist.rows[r["same_metal_as"] - 1]) in gone:
                 r.update({"status": "invalid", "fom_mk": None, "error": "refused on resume with its twin"})
         if refused:
-            gone = {id(x) for x in refused}
             self.hist.outlines = {k: v for k, v in self.hist.outlines.items() if id(v) not in gone}
             penalty = self.penalty()
             for r in self.hist.rows:
