@@ -145,27 +145,3 @@ def scatter_values(data: np.ndarray, slot: np.ndarray, cc: np.ndarray, free_o: n
                 if scalar:
                     v += c_q * mq[p]
                 data[at] += cc[p, i, j] * v
-
-
-@numba.njit(cache=True, nogil=True)
-def current_moments(p: np.ndarray, jw: np.ndarray, level: np.ndarray, n_levels: int, k: float, sx: np.ndarray,
-                    sy: np.ndarray, mirrored: bool) -> np.ndarray:
-    """Per direction (sx, sy) and metal level, the horizontal current moment
-    sum_p jw_p exp(jk (x_p sx + y_p sy)) [D, n_levels, 2]. ``mirrored``: the points are the first
-    quadrant's of currents in the x-driven mirror class, whose four images sum to
-    4 J_x cos(k x sx) cos(k y sy) and -4 J_y sin(k x sx) sin(k y sy)."""
-    n_dir = sx.shape[0]
-    out = np.zeros((n_dir, n_levels, 2), np.complex128)
-    for d in range(n_dir):
-        kx, ky = k * sx[d], k * sy[d]
-        for q in range(p.shape[0]):
-            ax, ay = kx * p[q, 0], ky * p[q, 1]
-            lev = level[q]
-            if mirrored:
-                out[d, lev, 0] += 4.0 * np.cos(ax) * np.cos(ay) * jw[q, 0]
-                out[d, lev, 1] -= 4.0 * np.sin(ax) * np.sin(ay) * jw[q, 1]
-            else:
-                e = np.cos(ax + ay) + 1j * np.sin(ax + ay)
-                out[d, lev, 0] += e * jw[q, 0]
-                out[d, lev, 1] += e * jw[q, 1]
-    return out

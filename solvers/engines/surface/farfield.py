@@ -30,14 +30,12 @@ def gain_pattern(prob: Problem, sol: Solution, theta_deg: np.ndarray, phi_deg: n
     if mirrored_currents:
         first = (p[:, 0] > 0) & (p[:, 1] > 0)  # every triangle lies in one quadrant (meshes are mirrored)
         p, jw = p[first], jw[first]
-    from ._compiled import current_moments
-
     levels, level = np.unique(np.round(p[:, 2], 9), return_inverse=True)  # flat metal: a few heights
     th, ph = np.meshgrid(np.radians(theta_deg), np.radians(phi_deg), indexing="ij")
     th, ph = th.ravel(), ph.ravel()
     # exp(jk s.r) = exp(jk (x sx + y sy)) exp(jk z cz): one horizontal moment per metal level
-    moment = current_moments(p, np.ascontiguousarray(jw), level.astype(np.int64), len(levels), k,
-                             np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), mirrored_currents)
+    moment = horizontal_moments(p, jw, level, len(levels), k * np.sin(th) * np.cos(ph), k * np.sin(th) * np.sin(ph),
+                                mirrored_currents)
     up = np.exp(1j * k * np.outer(np.cos(th), levels))  # [D, n_levels]
     direct = np.einsum("dl,dlc->dc", up, moment)
     mirrored = np.einsum("dl,dlc->dc", up.conj(), moment) if prob.ground != "free" else np.zeros_like(direct)
@@ -53,3 +51,32 @@ def gain_pattern(prob: Problem, sol: Solution, theta_deg: np.ndarray, phi_deg: n
     nph = -across[:, 0] * np.sin(ph) + across[:, 1] * np.cos(ph)
     u = k ** 2 * ETA0 * (np.abs(nth) ** 2 + np.abs(nph) ** 2) / (32 * np.pi ** 2)
     return (4 * np.pi * u / sol.input_power).reshape(len(theta_deg), len(phi_deg))
+
+
+NUFFT_EPS = 1e-13  # relative to the sum of |strengths|: far below the model's own error (measured 1.4e-13 of the peak)
+
+
+def horizontal_moments(p: np.ndarray, jw: np.ndarray, level: np.ndarray, n_levels: int, kx: np.ndarray,
+                       ky: np.ndarray, mirrored: bool) -> np.ndarray:
+    """Per direction (kx, ky) and metal level, the horizontal current moment
+    sum_p jw_p exp(j (kx x_p + ky y_p)) [D, n_levels, 2], by a type-3 non-uniform FFT (finufft):
+    the direct sum was D x P complex exponentials, 16 % of a search candidate's time.
+
+    ``mirrored``: the points are the first quadrant's of currents in the x-driven mirror class
+    (J_x even in x and y, J_y odd in both), so each point enters as its four images, J_y's with
+    the sign of x y: their sums are 4 J_x cos(kx x) cos(ky y) and -4 J_y sin(kx x) sin(ky y)."""
+    import finufft
+
+    x, y, cx, cy = p[:, 0], p[:, 1], jw[:, 0], jw[:, 1]
+    if mirrored:
+        x, y = np.concatenate([x, -x, x, -x]), np.concatenate([y, y, -y, -y])
+        cx, cy = np.tile(cx, 4), np.concatenate([cy, -cy, -cy, cy])
+    lev = np.tile(level, 4) if mirrored else level
+    out = np.zeros((len(kx), n_levels, 2), complex)
+    for at in range(n_levels):
+        on = lev == at
+        strengths = np.ascontiguousarray(np.stack([cx[on], cy[on]]))
+        # one thread: the solves run in one-thread worker processes
+        out[:, at, :] = finufft.nufft2d3(x[on], y[on], strengths, np.ascontiguousarray(kx), np.ascontiguousarray(ky),
+                                         eps=NUFFT_EPS, isign=1, nthreads=1).T
+    return out

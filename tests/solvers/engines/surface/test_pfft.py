@@ -117,6 +117,35 @@ def test_far_field_from_the_first_quadrant_is_the_whole_far_field():
     assert np.allclose(quarter, full, rtol=1e-10)
 
 
+def test_far_field_moments_by_nufft_are_the_direct_sum():
+    """``horizontal_moments`` (a type-3 NUFFT) against the sum it stands for, written out with
+    numpy: every point's exp(j (kx x + ky y)) on two metal levels, plain and as four mirror images."""
+    from solvers.engines.surface.farfield import horizontal_moments
+
+    rng = np.random.default_rng(7)
+    n = 400
+    p = np.c_[rng.uniform(0.01, 15.0, n), rng.uniform(0.01, 15.0, n), rng.choice([0.005, 0.05], n)]
+    jw = rng.standard_normal((n, 2)) + 1j * rng.standard_normal((n, 2))
+    levels, level = np.unique(p[:, 2], return_inverse=True)
+    th, ph = np.meshgrid(np.radians(np.arange(0.0, 91.0, 7.0)), np.radians(np.arange(0.0, 360.0, 11.0)), indexing="ij")
+    k = 2 * np.pi * 97e6 / 299792458.0
+    kx, ky = k * (np.sin(th) * np.cos(ph)).ravel(), k * (np.sin(th) * np.sin(ph)).ravel()
+    want = np.zeros((len(kx), 2, 2), complex)
+    for sx, sy in ((1, 1), (-1, 1), (1, -1), (-1, -1)):
+        e = np.exp(1j * (np.outer(kx, sx * p[:, 0]) + np.outer(ky, sy * p[:, 1])))  # [D, P]
+        for at in range(2):
+            on = level == at
+            want[:, at, 0] += e[:, on] @ jw[on, 0]
+            want[:, at, 1] += sx * sy * (e[:, on] @ jw[on, 1])
+    got = horizontal_moments(p, jw, level, len(levels), kx, ky, mirrored=True)
+    assert np.abs(got - want).max() < 1e-10 * np.abs(want).max()
+    e = np.exp(1j * (np.outer(kx, p[:, 0]) + np.outer(ky, p[:, 1])))
+    plain = horizontal_moments(p, jw, level, len(levels), kx, ky, mirrored=False)
+    for at in range(2):
+        on = level == at
+        assert np.abs(plain[:, at] - e[:, on] @ jw[on]).max() < 1e-10 * np.abs(want).max()
+
+
 def test_grid_moments_are_the_two_stencils_summed_over_the_kernel_table():
     """The compiled precorrection loop against its definition: each point pair's grid value is
     the sum over the observation and source points' 4 x 4 stencils of w_o w_s K[node_o - node_s],
