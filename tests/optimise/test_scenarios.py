@@ -48,6 +48,10 @@ def test_as_built_members_build_the_variants_or_skip_designs_without_the_part():
         jobs_square[0].plane(Square(10.0))
     with pytest.raises(NotApplicable, match="teeth of base 5.2 m"):
         jobs_square[1].plane(preset("sawtooth-20-16"))
+    # and the check before any solve skips it too, as the solve does (it had refused the whole field set)
+    from optimise.scenarios import check_set
+
+    check_set(scenario_set("field"), EvalSettings(), preset("sawtooth-20-16"))
 
 
 def test_member_overrides_are_type_checked_and_refused_by_name():
