@@ -5,9 +5,12 @@ this one process: the search level's 3 deg quadrant, one metal level per sheet.
 
     .venv/bin/python benchmarks/bench_far_field.py [--design sawtooth-20-16] [--mesh 0.7]
         [--freqs 55,76,97] [-o results/bench/bench_far_field.txt]
+    .venv/bin/python benchmarks/bench_far_field.py --candidate [--freqs 55:97:4] [-o ...]
 
 Prints the far-field time both ways and their ratio, each solve's time for scale, and the largest
-gain difference in dB above 10 deg elevation. Never fails on a time.
+gain difference in dB above 10 deg elevation. ``--candidate``: a whole search candidate instead
+(the design on the five soils of the ``soil`` set, in this process, the Sommerfeld tables filled
+first, the direct sum's run first), both wall times and their ratio. Never fails on a time.
 """
 from __future__ import annotations
 
@@ -21,6 +24,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
 
 
 @numba.njit(cache=True, nogil=True)
@@ -42,6 +46,34 @@ def direct_sum(p, jw, level, n_levels, kx, ky, mirrored):
     return out
 
 
+def candidate(plane, args) -> None:
+    """The five soils of one design, in this process, with the direct sum and then the NUFFT."""
+    from bench_fastmath import SOILS, fill_tables
+
+    from groundplane.design import Design, Soil
+    from groundplane.options import parse_freqs
+    from solvers.engines.surface import SurfaceSettings, SurfaceSolver, farfield
+
+    freqs = parse_freqs(args.freqs if ":" in args.freqs else "55:97:4")
+    fill_tables(plane, args.mesh, freqs)
+    nufft, times = farfield.horizontal_moments, {}
+    for name, moments in (("direct sum", direct_sum), ("nufft", nufft)):
+        farfield.horizontal_moments = moments
+        solver = SurfaceSolver(SurfaceSettings(spacing=args.mesh), workers=0, use_cache=False)
+        solver.solve_many([Design(plane, Soil(*SOILS[0]))], freqs[:1])  # compile and build outside the clock
+        t0 = time.perf_counter()
+        solver.solve_many([Design(plane, Soil(*s)) for s in SOILS], freqs)
+        times[name] = time.perf_counter() - t0
+        print(f"{name}: {times[name]:.1f} s", flush=True)
+    text = (f"{args.design} at {args.mesh:g} m, {len(freqs)} frequencies, the 5 soils, one process, tables warm: far "
+            f"field by the direct sum {times['direct sum']:.1f} s, by the NUFFT {times['nufft']:.1f} s "
+            f"(**{times['direct sum'] / times['nufft']:.2f}x**)")
+    print(text)
+    if args.out:
+        head = f"# .venv/bin/python benchmarks/bench_far_field.py {' '.join(sys.argv[1:])}  ({time.strftime('%Y-%m-%d')})\n"
+        Path(args.out).write_text(head + text + "\n")
+
+
 def main() -> None:
     from groundplane.design import Design, Soil
     from groundplane.shapes import PRESETS, from_file
@@ -53,9 +85,12 @@ def main() -> None:
     ap.add_argument("--design", default="sawtooth-20-16")
     ap.add_argument("--mesh", type=float, default=0.7)
     ap.add_argument("--freqs", default="55,76,97")
+    ap.add_argument("--candidate", action="store_true")
     ap.add_argument("-o", "--out")
     args = ap.parse_args()
     plane = from_file(args.design) if args.design.endswith(".json") else PRESETS[args.design]
+    if args.candidate:
+        return candidate(plane, args)
     settings = SurfaceSettings(spacing=args.mesh)
     soil = Soil(3.5, 0.02)
     mesh = build_mesh(Design(plane, soil), settings)
