@@ -49,6 +49,7 @@ def direct_sum(p, jw, level, n_levels, kx, ky, mirrored):
 def candidate(plane, args) -> None:
     """The five soils of one design, in this process, with the direct sum and then the NUFFT."""
     from bench_fastmath import SOILS, fill_tables
+    from bench_surface import print_and_write
 
     from groundplane.design import Design, Soil
     from groundplane.options import parse_freqs
@@ -68,13 +69,12 @@ def candidate(plane, args) -> None:
     text = (f"{args.design} at {args.mesh:g} m, {len(freqs)} frequencies, the 5 soils, one process, tables warm: far "
             f"field by the direct sum {times['direct sum']:.1f} s, by the NUFFT {times['nufft']:.1f} s "
             f"(**{times['direct sum'] / times['nufft']:.2f}x**)")
-    print(text)
-    if args.out:
-        head = f"# .venv/bin/python benchmarks/bench_far_field.py {' '.join(sys.argv[1:])}  ({time.strftime('%Y-%m-%d')})\n"
-        Path(args.out).write_text(head + text + "\n")
+    print_and_write(text, args.out)
 
 
 def main() -> None:
+    from bench_surface import print_and_write
+
     from groundplane.design import Design, Soil
     from groundplane.shapes import PRESETS, from_file
     from solvers.engines.surface import SurfaceSettings, farfield, pfft
@@ -121,10 +121,7 @@ def main() -> None:
     lines.append(f"far field over the frequencies: {t_base:.2f} -> {t_new:.3f} s ({t_base / t_new:.1f}x); "
                  f"largest gain difference {worst:.1e} dB")
     text = "\n".join(lines)
-    print(text)
-    if args.out:
-        head = f"# .venv/bin/python benchmarks/bench_far_field.py {' '.join(sys.argv[1:])}  ({time.strftime('%Y-%m-%d')})\n"
-        Path(args.out).write_text(head + text + "\n")
+    print_and_write(text, args.out)
 
 
 if __name__ == "__main__":

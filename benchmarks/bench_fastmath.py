@@ -70,7 +70,7 @@ def fill_tables(plane, mesh: float, freqs) -> None:
 
 
 def main() -> None:
-    from bench_surface import foms, rms_db
+    from bench_surface import foms, print_and_write, rms_db
 
     from groundplane.options import parse_freqs
     from groundplane.shapes import PRESETS, from_file
@@ -102,10 +102,7 @@ def main() -> None:
         lines.append(f"| {s[0]:g}, {s[1]:g} | {np.max(rms_db(a, b)):.1e} | {fa[0]:.4f} / {fb[0]:.4f} | "
                      f"{fa[1]:.4f} / {fb[1]:.4f} |")
     text = "\n".join(lines)
-    print(text)
-    if args.out:
-        head = f"# .venv/bin/python benchmarks/bench_fastmath.py {' '.join(sys.argv[1:])}  ({time.strftime('%Y-%m-%d')})\n"
-        Path(args.out).write_text(head + text + "\n")
+    print_and_write(text, args.out)
 
 
 if __name__ == "__main__":

@@ -95,6 +95,15 @@ def baseline_root(rev: str) -> Path:
     return path
 
 
+def print_and_write(text: str, out: str | None) -> None:
+    """Print a benchmark's result and, with ``out``, write it under a header line naming the
+    command and the date (every committed output says how to reproduce it)."""
+    print(text)
+    if out:
+        head = f"# .venv/bin/python benchmarks/{Path(sys.argv[0]).name} {' '.join(sys.argv[1:])}  ({time.strftime('%Y-%m-%d')})\n"
+        Path(out).write_text(head + text + "\n")
+
+
 def rms_db(a, b) -> np.ndarray:
     """Per frequency, the solid-angle-weighted rms of B - A in dB above 10 deg elevation."""
     from groundplane.comparison import direction_differences
