@@ -19,7 +19,7 @@ def gain_pattern(prob: Problem, sol: Solution, theta_deg: np.ndarray, phi_deg: n
     ``mirrored_currents``: the currents are in the x-driven mirror class (solved with
     :class:`MirrorSymmetry`: J_x even and J_y odd in both x and y), so the four images of a
     first-quadrant point sum to 4 J_x cos(k x s_x) cos(k y s_y) and -4 J_y sin(k x s_x)
-    sin(k y s_y): the same far field from a quarter of the points and half the exponentials."""
+    sin(k y s_y): the same far field from a quarter of the solved currents (:func:`horizontal_moments`)."""
     mesh, k = prob.mesh, 2 * np.pi * sol.freq_hz / C0
     pts, w = quadrature_points(mesh, Q7)
     alpha = prob.c1.T @ sol.currents  # J = alpha rho + beta on each triangle
