@@ -177,7 +177,7 @@ def pareto_front(shape: str, budgets: list[float], settings: EvalSettings, confi
         scored = kept_rows(evaluate_fn, out / "scored.jsonl", objective)  # answers, presets, ladder
     else:
         scored = evaluate_fn
-    results, rows = {}, []
+    results, rows, answers, earlier = {}, [], [], None
     for b in sorted(budgets):
         if progress:
             print(f"pareto: budget {b:g} m^2", file=sys.stderr, flush=True)
@@ -188,7 +188,10 @@ def pareto_front(shape: str, budgets: list[float], settings: EvalSettings, confi
                        scheduler=scheduler, seeds=smaller, constraints=constraints, max_budget=max_budget,
                        objective={"scenarios": scenarios.identity()} if scenarios is not None else None)
         results[b] = res
-        rows.append(_answer(shape, b, res, confirm, answer_mesh, scored, constraints))
+        answers.append(_answer(shape, b, res, confirm, answer_mesh, scored, constraints))
+        if earlier is None:  # a run of some budgets keeps the others this folder answered with the same objective
+            earlier = earlier_rows(out, budgets, out / f"budget-{b:g}")
+        rows = sorted(answers + earlier, key=lambda r: r["budget_m2"])
         write_csv(out / "front.csv", rows, PARETO_COLUMNS)
     presets = preset_rows(confirm, scored, floor, constraints)
     write_csv(out / "presets.csv", presets, PRESET_COLUMNS)
@@ -196,6 +199,49 @@ def pareto_front(shape: str, budgets: list[float], settings: EvalSettings, confi
     if lad:
         write_csv(out / "ladder.csv", lad, tuple(lad[0]))
     return Front(rows, presets, lad, rho, results)
+
+
+def earlier_rows(out: Path, budgets: list[float], searched: Path) -> list[dict[str, Any]]:
+    """The rows of ``out/front.csv`` for budgets this run does not search, kept when their search
+    (``budget-<A>/search.json``) had the same shape, settings and objective as ``searched``'s: a
+    run of one budget (resuming it, say) must not drop the front's other answers, nor keep answers
+    to another question."""
+    import csv
+
+    def identity(d: Path) -> Any:
+        try:
+            meta = json.loads((d / "search.json").read_text())
+        except (OSError, ValueError):
+            return None
+        return meta.get("shape"), meta.get("settings"), meta.get("objective")
+
+    path, mine = out / "front.csv", identity(searched)
+    if mine is None or not path.exists():
+        return []
+    kept = []
+    with open(path, newline="") as fh:
+        for r in csv.DictReader(fh):
+            try:
+                a = float(r["budget_m2"])
+            except (KeyError, ValueError):
+                continue
+            if a not in budgets and identity(out / f"budget-{a:g}") == mine:
+                kept.append({k: _cell_value(k, v) for k, v in r.items() if k in PARETO_COLUMNS})
+    return kept
+
+
+def _cell_value(column: str, text: str | None) -> Any:
+    """A front.csv cell back as the value :func:`_answer` wrote (numbers, booleans, None for empty)."""
+    if text is None or text == "":
+        return None
+    if column in ("design", "violations"):
+        return text
+    if text in ("True", "False"):
+        return text == "True"
+    try:
+        return int(text) if column in ("evaluations", "best_at") else float(text)
+    except ValueError:
+        return text
 
 
 def best_preset_within(presets: list[dict], area_m2: float) -> dict | None:

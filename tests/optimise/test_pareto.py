@@ -242,3 +242,20 @@ def test_a_front_keeps_its_scored_rows_for_a_machine_without_the_beam_cache(tmp_
     again(Candidate("c", plane=PRESETS["square-10"]), s.with_spacing(1.0))  # other settings: scored
     kept_rows(ev, path, {"scenarios": "field"})(Candidate("d", plane=PRESETS["square-10"]), s)  # other objective
     assert len(calls) == 3
+
+
+def test_a_run_of_one_budget_keeps_the_fronts_other_answers(tmp_path):
+    """Resuming one budget (``--pareto 600`` in a folder that answered 200 and 600) rewrote
+    front.csv with that budget alone; the others are kept while their search asked the same question."""
+    search, confirm = EvalSettings().with_spacing(1.0), EvalSettings()
+    kw = dict(budget=8, answer_mesh=None, ladder=0, evaluate_fn=fake_eval([]), progress=False, floor=lambda s: 55.0)
+    pareto_front("teeth", [200.0, 600.0], search, confirm, tmp_path, **kw)
+    first = {float(r["budget_m2"]): r for r in csv.DictReader((tmp_path / "front.csv").open())}
+    front = pareto_front("teeth", [600.0], search, confirm, tmp_path, **kw)
+    again = {float(r["budget_m2"]): r for r in csv.DictReader((tmp_path / "front.csv").open())}
+    assert set(again) == {200.0, 600.0} and again[200.0] == first[200.0]
+    assert [r["budget_m2"] for r in front.rows] == [200.0, 600.0] and front.rows[0]["evaluations"] == 8
+    meta = tmp_path / "budget-200" / "search.json"  # the 200 search asked another question: not kept
+    meta.write_text(json.dumps({**json.loads(meta.read_text()), "objective": {"scenarios": "other"}}))
+    pareto_front("teeth", [600.0], search, confirm, tmp_path, **kw)
+    assert [float(r["budget_m2"]) for r in csv.DictReader((tmp_path / "front.csv").open())] == [600.0]
