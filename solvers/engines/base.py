@@ -409,8 +409,14 @@ class Solver(ABC):
         })
 
 
+MAX_FREQ_MHZ = 1e5  # 100 GHz: far above any ground-plane model here; a larger value is Hz passed as MHz
+
+
 def _freqs(freqs_mhz: Iterable[float]) -> np.ndarray:
     f = np.asarray(list(freqs_mhz), dtype=float)
     if f.size == 0 or not np.all(np.isfinite(f)) or np.any(f <= 0):
         raise SettingsError("frequencies must be positive MHz")
+    if np.any(f > MAX_FREQ_MHZ):  # the engines would mesh and solve at it for hours before anything failed
+        raise SettingsError(f"frequencies are in MHz: {f.max():g} MHz is above {MAX_FREQ_MHZ:g} MHz "
+                            f"(Hz given as MHz? 55e6 Hz is 55 MHz)")
     return f

@@ -460,6 +460,7 @@ def _joined(parts: list[np.ndarray]) -> np.ndarray:
 SERIES_TOL = 1e-13  # last term of the smooth part's power series, relative to 1
 SERIES_HEADROOM = 1.6  # a series built at k holds to 1.6 k (a worker's later, higher frequencies)
 SERIES_FLOOR_HZ = 100e6  # and at least to 100 MHz: one build covers the low band
+SERIES_MAX_KR = 200.0  # near pairs span a few wavelengths at most; e^200 is still a finite float
 
 
 class NearSeries:
@@ -494,6 +495,9 @@ class NearSeries:
     def _n_terms(self, r_max: float) -> int:
         """Terms of the series until x^n / n! < SERIES_TOL, x = k_max R_max."""
         x = self.k_max * r_max
+        if not x < SERIES_MAX_KR:  # past it x^n / n! overflows to inf on the way and the loop never ends
+            raise ValueError(f"NearSeries: near pairs {r_max:.3g} m apart at k = {self.k_max:.3g} rad/m "
+                             f"(k R = {x:.3g}) are beyond the series' reach ({SERIES_MAX_KR:g})")
         n_terms, size = 1, x
         while size > SERIES_TOL:
             n_terms += 1

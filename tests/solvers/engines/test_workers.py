@@ -185,3 +185,23 @@ def test_sigterm_mid_solve_exits_cleanly_and_keeps_what_finished(tmp_path):
     assert "terminated (what was finished is kept)" in err and "leaked" not in err
     assert not (tmp_path / "b.npz").exists()
     assert list((tmp_path / "cache" / "partial").glob("*/*.npz"))  # a rerun resumes from these
+
+
+def test_frequencies_given_in_hz_are_refused_not_solved_for_hours():
+    """``solve(design, np.arange(55, 98) * 1e6)`` (Hz where the API takes MHz) meshed and built the
+    near series at 55 THz, where its term count loops for ever; now it is refused by name."""
+    import numpy as np
+
+    from groundplane.errors import SettingsError
+    from solvers.engines.surface import SurfaceSettings, SurfaceSolver
+    from solvers.engines.surface.pfft import NearSeries
+
+    solver = SurfaceSolver(SurfaceSettings(spacing=2.0), workers=0, use_cache=False)
+    with pytest.raises(SettingsError, match=r"in MHz: 9\.7e\+07 MHz .*Hz given as MHz"):
+        solver.solve(Design(Square(10.0), Soil()), np.arange(55.0, 98.0) * 1e6)
+    series = NearSeries.__new__(NearSeries)
+    series.k_max = 2e6
+    with pytest.raises(ValueError, match="beyond the series' reach"):
+        series._n_terms(3.0)
+    series.k_max = 3.35
+    assert 10 < series._n_terms(3.0) < 60

@@ -88,7 +88,7 @@ def _nec_dipole(length: float, radius: float) -> complex:
     c = nec_context()
     c.get_geometry().wire(1, 41, -length / 2, 0, 0, length / 2, 0, 0, radius, 1.0, 1.0)
     c.geometry_complete(0)
-    c.fr_card(0, 1, freq_mhz, 0)
+    c.fr_card(0, 1, 75.0, 0)
     c.ex_card(0, 1, 21, 0, 1.0, 0, 0, 0, 0, 0)
     c.xq_card(0)
     ip = c.get_input_parameters(0)
