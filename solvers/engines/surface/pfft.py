@@ -649,6 +649,10 @@ def frequency_terms(model: FastModel, freq_hz: float) -> FrequencyTerms:
 
 SHARE_PRECONDITIONER = True  # the soils of one design at one frequency share one near-matrix LU
 WARM_START = True  # a soil's GMRES starts from the previous soil's currents of the design at that frequency
+# ... and the first soil at a frequency from the design's last currents at a neighbouring one (within
+# WARM_START_SPAN relative): square-10 at 1.0 m, 43 frequencies in one process, GMRES 9.9 -> 7.9 iterations
+WARM_START_ACROSS_FREQUENCIES = True
+WARM_START_SPAN = 0.1
 # The near matrix is structurally symmetric (its pairs are), so a minimum-degree order on A^T + A
 # fills less than SuperLU's default COLAMD (sawtooth-20-16 at 0.7 m: 0.74 vs 0.88 M, factor 2.2x faster)
 LU_ORDERING = "MMD_AT_PLUS_A"
@@ -675,16 +679,24 @@ def near_lu(model: FastModel, op: FastOperator, freq_hz: float):
 
 
 def warm_start(model: FastModel, freq_hz: float, a: np.ndarray | None = None) -> np.ndarray | None:
-    """The last solved unknowns of ``model`` at ``freq_hz`` in this process (the design's previous
-    soil: its currents differ from the next soil's by the soil's small share of the fields, so
-    GMRES starts closer than from zero); with ``a``, keep those instead. One entry, like the LU."""
-    key = (id(model), float(freq_hz))
+    """The last solved unknowns of ``model`` in this process, as GMRES's start at ``freq_hz``: the
+    design's previous soil at this frequency (its currents differ from the next soil's by the
+    soil's small share of the fields), else the design's last frequency within ``WARM_START_SPAN``
+    (a worker's previous one: the currents move smoothly with frequency), else None (from zero);
+    with ``a``, keep those instead. One entry, like the LU."""
     if a is not None:
         _START.clear()
-        _START[key] = (model, a)
+        _START[(id(model), float(freq_hz))] = (model, a)
         return a
-    hit = _START.get(key, (None, None))
-    return hit[1] if WARM_START and hit[0] is model else None
+    if not WARM_START or not _START:
+        return None
+    (_, f_last), (owner, last) = next(iter(_START.items()))
+    if owner is not model:  # the entry holds its model, so its id is never another's
+        return None
+    if f_last == float(freq_hz):
+        return last
+    near = abs(f_last - freq_hz) <= WARM_START_SPAN * freq_hz
+    return last if WARM_START_ACROSS_FREQUENCIES and near else None
 
 
 def solve_fast(prob: Problem, freq_hz: float, symmetric: bool) -> tuple[Solution, FastStats]:

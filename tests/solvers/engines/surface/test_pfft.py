@@ -211,3 +211,19 @@ def test_fast_solve_of_an_asymmetric_plane_gives_the_dense_beam():
     gd, gf = gain_pattern(prob, dense, th, ph), gain_pattern(prob, fast, th, ph)
     assert np.sqrt(np.mean((10 * np.log10(gf / gd)) ** 2)) < 2e-3
     assert abs(fast.input_impedance - dense.input_impedance) < 0.05
+
+
+def test_gmres_starts_from_the_nearest_solved_currents_of_the_same_design(monkeypatch):
+    """The warm start: the design's previous soil at this frequency, else its last frequency within
+    WARM_START_SPAN (10 %), never another design's currents nor a far frequency's."""
+    from solvers.engines.surface import pfft
+
+    model, other, a = object(), object(), np.arange(3.0)
+    pfft.warm_start(model, 75e6, a)
+    assert pfft.warm_start(model, 75e6) is a and pfft.warm_start(model, 78e6) is a
+    assert pfft.warm_start(model, 90e6) is None and pfft.warm_start(other, 75e6) is None
+    monkeypatch.setattr(pfft, "WARM_START_ACROSS_FREQUENCIES", False)
+    assert pfft.warm_start(model, 78e6) is None and pfft.warm_start(model, 75e6) is a
+    monkeypatch.setattr(pfft, "WARM_START", False)
+    assert pfft.warm_start(model, 75e6) is None
+    pfft._START.clear()
