@@ -210,10 +210,10 @@ def earlier_rows(out: Path, budgets: list[float], searched: Path) -> list[dict[s
 
     def identity(d: Path) -> Any:
         try:
-            meta = json.loads((d / "search.json").read_text())
+            search = json.loads((d / "search.json").read_text())
         except (OSError, ValueError):
             return None
-        return meta.get("shape"), meta.get("settings"), meta.get("objective")
+        return search.get("shape"), search.get("settings"), search.get("objective")
 
     path, mine = out / "front.csv", identity(searched)
     if mine is None or not path.exists():
