@@ -650,7 +650,8 @@ def frequency_terms(model: FastModel, freq_hz: float) -> FrequencyTerms:
 SHARE_PRECONDITIONER = True  # the soils of one design at one frequency share one near-matrix LU
 WARM_START = True  # a soil's GMRES starts from the previous soil's currents of the design at that frequency
 # ... and the first soil at a frequency from the design's last currents at a neighbouring one (within
-# WARM_START_SPAN relative): square-10 at 1.0 m, 43 frequencies in one process, GMRES 9.9 -> 7.9 iterations
+# WARM_START_SPAN relative): 17-21 % fewer GMRES iterations, no wall time resolved on a loaded machine
+# (benchmarks/bench_warm_frequencies.py: 0.96-1.03x; docs/speed.md, fifth pass)
 WARM_START_ACROSS_FREQUENCIES = True
 WARM_START_SPAN = 0.1
 # The near matrix is structurally symmetric (its pairs are), so a minimum-degree order on A^T + A
