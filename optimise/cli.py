@@ -109,8 +109,8 @@ def _setup_optimise(p: argparse.ArgumentParser):
     area.add_argument("--max-area", type=float, help="metal budget, m^2")
     area.add_argument("--pareto", type=float, nargs="+", metavar="A",
                       help="the front: the best design at each of these metal budgets (m^2), beside the paper's "
-                           "presets and the blade over infinite PEC; writes pareto.csv, presets.csv, ladder.csv, "
-                           "pareto.md and figures")
+                           "presets and the blade over infinite PEC; writes front.csv, presets.csv, ladder.csv, "
+                           "pareto.md and figures (after every budget is searched)")
     p.add_argument("--strategy", choices=["global", "local"], default="global",
                    help="global (default): the family's presets and a space-filling sample, then local refinement "
                         "of the best few; local: the algorithm from one start per integer value")
