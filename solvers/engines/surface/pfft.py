@@ -96,6 +96,7 @@ class FastModel:
     pairs: np.ndarray  # [P, 2] (obs, src) triangle pairs to precorrect (obs in the rows' triangles)
     _series: "NearSeries | None" = None
     _assembly: "StaticAssembly | None" = None
+    _rows_of_level: "list[slice] | None" = None
 
     def series(self, k: float) -> "NearSeries":
         """The engine's near moments as a series in k, (re)built when ``k`` is beyond it."""
@@ -124,6 +125,42 @@ class FastModel:
         import scipy.fft
 
         return scipy.fft.next_fast_len(2 * self.grid.nx), scipy.fft.next_fast_len(2 * self.grid.ny)
+
+    @property
+    def rows_of_level(self) -> list[slice]:
+        """The grid rows (x) each level's points reach through their stencils: a level's
+        sources and potentials are zero, and unused, outside them (the blade's level spans a few
+        rows of a grid sized for the plate)."""
+        if self._rows_of_level is None:
+            ix = self.stencils[0]
+            self._rows_of_level = [slice(int(ix[self.level == lv].min()), int(ix[self.level == lv].max()) + 4)
+                                   if np.any(self.level == lv) else slice(0, 0) for lv in range(len(self.grid.levels))]
+        return self._rows_of_level
+
+    def spectrum(self, src: np.ndarray) -> np.ndarray:
+        """The zero-padded 2-D FFT [..., n_lev, sx, sy] of grid sources [..., n_lev, nx, ny]: along y
+        only on the rows a level's sources occupy (the others are zero), then along x. Equal to
+        ``fft2`` of the padded array; written out because no FFT library prunes zero rows."""
+        import scipy.fft
+
+        sx, sy = self.shape
+        half = np.zeros(src.shape[:-1] + (sy,), complex)
+        for lv, rows in enumerate(self.rows_of_level):
+            half[..., lv, rows, :] = scipy.fft.fft(src[..., lv, rows, :], n=sy, axis=-1, workers=1)
+        return scipy.fft.fft(half, n=sx, axis=-2, workers=1, overwrite_x=True)
+
+    def potentials(self, spectrum: np.ndarray) -> np.ndarray:
+        """The grid potentials [..., n_lev, nx, ny] of a spectrum [..., n_lev, sx, sy]: the inverse
+        of :meth:`spectrum`, along x, then along y only on the rows a level's points read (zero
+        elsewhere). Equal to ``ifft2`` cut to the grid there."""
+        import scipy.fft
+
+        g = self.grid
+        half = scipy.fft.ifft(spectrum, axis=-2, workers=1)
+        out = np.zeros(spectrum.shape[:-2] + (g.nx, g.ny), complex)
+        for lv, rows in enumerate(self.rows_of_level):
+            out[..., lv, rows, :] = scipy.fft.ifft(half[..., lv, rows, :], axis=-1, workers=1)[..., :g.ny]
+        return out
 
 
 def row_triangles(prob: Problem, rows: np.ndarray) -> np.ndarray:
@@ -595,8 +632,6 @@ class FastOperator:
 
     def matvec(self, x: np.ndarray) -> np.ndarray:
         """Z[rows] @ x for a full current vector x [N]."""
-        import scipy.fft
-
         m = self.model
         g = m.grid
         pts, w = m.points
@@ -605,18 +640,18 @@ class FastOperator:
         jx = w * (alpha[:, None] * pts[..., 0] + beta[:, None, 0])
         jy = w * (alpha[:, None] * pts[..., 1] + beta[:, None, 1])
         qc = w * (2 * alpha[:, None])
-        nl, sx, sy = len(g.levels), *m.shape
-        src = np.zeros((3, nl, sx, sy), complex)
+        nl = len(g.levels)
+        src = np.empty((3, nl, g.nx, g.ny), complex)
         for c, vals in enumerate((jx, jy, qc)):
-            src[c, :, :g.nx, :g.ny] = (m.project @ vals.ravel()).reshape(nl, g.nx, g.ny)
-        f = scipy.fft.fft2(src, axes=(-2, -1), workers=1)
+            src[c] = (m.project @ vals.ravel()).reshape(nl, g.nx, g.ny)
+        f = m.spectrum(src)
         pot = np.empty_like(f)
         kf = self.kernel_fft
         for lo in range(nl):
             pot[0, lo] = np.einsum("sxy,sxy->xy", kf[lo, :, 0], f[0])
             pot[1, lo] = np.einsum("sxy,sxy->xy", kf[lo, :, 0], f[1])
             pot[2, lo] = np.einsum("sxy,sxy->xy", kf[lo, :, 1], f[2])
-        pot = scipy.fft.ifft2(pot, axes=(-2, -1), workers=1)[..., :g.nx, :g.ny]
+        pot = m.potentials(pot)
         ax, ay, phi = ((m.project.T @ pot[c].ravel()).reshape(pts.shape[:2]) for c in range(3))
         t0 = (w * (ax * pts[..., 0] + ay * pts[..., 1])).sum(axis=1)
         t1x, t1y = (w * ax).sum(axis=1), (w * ay).sum(axis=1)

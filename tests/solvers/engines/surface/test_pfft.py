@@ -227,3 +227,30 @@ def test_gmres_starts_from_the_nearest_solved_currents_of_the_same_design(monkey
     monkeypatch.setattr(pfft, "WARM_START", False)
     assert pfft.warm_start(model, 75e6) is None
     pfft._START.clear()
+
+
+def test_pruned_grid_transforms_are_the_padded_fft2():
+    """The matvec's FFTs skip the rows a level's sources cannot reach (the blade's level spans a
+    few rows of the plate's grid): equal to fft2 of the zero-padded sources, and to ifft2 cut to
+    the grid on every row a level's points read."""
+    import scipy.fft
+
+    model = pfft.build_fast_model(_problem("soil"), None)
+    g, (sx, sy) = model.grid, model.shape
+    nl = len(g.levels)
+    assert nl == 2 and model.rows_of_level[1].stop - model.rows_of_level[1].start < g.nx // 2  # the blade's is narrow
+    rng = np.random.default_rng(3)
+    src = np.zeros((3, nl, g.nx, g.ny), complex)
+    for c in range(3):  # sources where the model puts them: through its projection
+        src[c] = (model.project @ (rng.normal(size=model.project.shape[1]) + 0j)).reshape(nl, g.nx, g.ny)
+    padded = np.zeros((3, nl, sx, sy), complex)
+    padded[..., :g.nx, :g.ny] = src
+    spec = model.spectrum(src)
+    assert np.allclose(spec, scipy.fft.fft2(padded, axes=(-2, -1)), rtol=0, atol=1e-12 * np.abs(spec).max())
+    pot = rng.normal(size=spec.shape) + 1j * rng.normal(size=spec.shape)
+    want = scipy.fft.ifft2(pot, axes=(-2, -1))[..., :g.nx, :g.ny]
+    got = model.potentials(pot)
+    for lv, rows in enumerate(model.rows_of_level):
+        assert np.allclose(got[:, lv, rows], want[:, lv, rows], rtol=0, atol=1e-13)
+        read = np.unique(model.project[lv * g.nx * g.ny:(lv + 1) * g.nx * g.ny].nonzero()[0] // g.ny)
+        assert rows.start <= read.min() and read.max() < rows.stop  # every row the level reads is kept
