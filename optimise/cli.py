@@ -132,8 +132,9 @@ def _setup_optimise(p: argparse.ArgumentParser):
                         "search level ranks (default 24; 0: don't)")
     p.add_argument("--integers", type=int, nargs="+", help="values of the family's integer parameter to try")
     p.add_argument("--seed", nargs="+", default=[], metavar="FILE.json",
-                   help="--max-area: designs the search scores first (e.g. another search's best.json); each must "
-                        "be a member of --shape's family and fit the budget")
+                   help="designs the search scores first (e.g. another search's best.json); each must be a member of "
+                        "--shape's family and fit the budget (with --pareto: each budget scores the seeds that fit it, "
+                        "after the smaller budgets' answers, and a seed must fit the largest)")
     p.add_argument("--compare", nargs="*", default=[], metavar="PRESET|FILE.json",
                    help="designs scored with the same settings (with --soil-grid: on every soil): preset names or "
                         "design files (an optimiser's best.json)")
@@ -158,7 +159,7 @@ def _setup_optimise(p: argparse.ArgumentParser):
     return _run_optimise
 
 
-def _run_pareto(args: argparse.Namespace) -> int:
+def _run_pareto(args: argparse.Namespace, seeds: dict | None = None) -> int:
     from groundplane.options import parse_freqs
 
     from .pareto import pareto_front, verdicts, write_report
@@ -187,7 +188,7 @@ def _run_pareto(args: argparse.Namespace) -> int:
     front = pareto_front(args.shape, args.pareto, settings, confirm, out, budget=args.budget, answer_mesh=answer or None,
                          ladder=args.ladder, confirm_top=args.confirm_top, executor=args.executor,
                          scheduler=args.scheduler, scenarios=scenarios, constraints=constraints,
-                         max_budget=args.max_budget)
+                         max_budget=args.max_budget, seeds=seeds)
     from .scenarios import describe_set
 
     path = write_report(front, out, invocation(), settings, confirm, objective=describe_set(scenarios, constraints),
@@ -210,11 +211,10 @@ def _seeds(args: argparse.Namespace) -> dict:
 
     from .search import check_seeds, family, integer_choices
 
-    if args.seed and args.pareto:
-        raise CLIError("--seed is for --max-area (a --pareto search seeds each budget with the smaller budgets' answers)")
     seeds = {f: from_file(f) for f in args.seed}
     fam = family(args.shape)
-    check_seeds(fam, args.max_area, integer_choices(fam, args.integers), seeds, args.strategy)
+    largest = max(args.pareto) if args.pareto else args.max_area  # --pareto: each budget takes the seeds that fit it
+    check_seeds(fam, largest, integer_choices(fam, args.integers), seeds, args.strategy)
     return seeds
 
 
@@ -260,7 +260,7 @@ def _run_optimise(args: argparse.Namespace) -> int:
     seeds = _seeds(args)
     check_output_dir(args.out)
     if args.pareto:
-        return _run_pareto(args)
+        return _run_pareto(args, seeds)
     if args.soil_grid:
         return _run_robust(args, compared, seeds)
     settings = eval_settings(args)

@@ -160,9 +160,10 @@ def pareto_front(shape: str, budgets: list[float], settings: EvalSettings, confi
                  evaluate_fn: Callable[[Candidate, EvalSettings], dict[str, Any]] | None = None,
                  executor: str = "local", scheduler: str | None = None, progress: bool = True,
                  floor: Callable[[EvalSettings], float] = pec_floor_mk, scenarios=None, constraints=None,
-                 max_budget: int | None = None) -> Front:
+                 max_budget: int | None = None, seeds: dict[str, Any] | None = None) -> Front:
     """Search ``shape`` at each metal budget (``out/budget-<A>/``, each resumable; a design met
-    again is a cache hit), confirm, answer; then the presets, the floor and the ladder. With
+    again is a cache hit), confirm, answer; then the presets, the floor and the ladder. Each
+    budget scores first the smaller budgets' answers, then the ``seeds`` (named planes) that fit it. With
     ``scenarios`` every design is scored on each member (the set's aggregate the objective) and
     ``constraints`` decide which designs can be an answer."""
     from .scenarios import scenario_evaluator
@@ -183,6 +184,7 @@ def pareto_front(shape: str, budgets: list[float], settings: EvalSettings, confi
             print(f"pareto: budget {b:g} m^2", file=sys.stderr, flush=True)
         # the smaller budgets' answers fit this one too: scored first, so the front cannot rise with metal
         smaller = {f"answer at {a:g} m^2": best_plane(shape, r.best) for a, r in results.items() if r.best}
+        smaller.update({n: p for n, p in (seeds or {}).items() if p.metal_area <= b * (1 + 1e-9)})  # those that fit it
         res = optimise(shape, b, settings, out / f"budget-{b:g}", budget=budget, evaluate_fn=evaluate_fn,
                        progress=progress, confirm_settings=confirm, confirm_top=confirm_top, executor=executor,
                        scheduler=scheduler, seeds=smaller, constraints=constraints, max_budget=max_budget,

@@ -215,8 +215,8 @@ def test_seed_designs_are_checked_before_the_search_and_reach_it(tmp_path, capsy
                                  "tooth_height": 9.8, "tip_fraction": 0.96}))
     assert main(["optimise", "--shape", "teeth", "--max-area", "50", "--seed", str(cross), "-o", str(tmp_path / "a")]) == 2
     assert f"--seed {cross}: not a teeth design within the bounds and the 50 m^2 budget (107.6 m^2)" in capsys.readouterr().err
-    assert main(["optimise", "--shape", "teeth", "--pareto", "200", "--seed", str(cross), "-o", str(tmp_path / "b")]) == 2
-    assert "--seed is for --max-area" in capsys.readouterr().err
+    assert main(["optimise", "--shape", "teeth", "--pareto", "50", "80", "--seed", str(cross), "-o", str(tmp_path / "b")]) == 2
+    assert f"--seed {cross}: not a teeth design within the bounds and the 80 m^2 budget" in capsys.readouterr().err
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
     argv = ["optimise", "--shape", "teeth", "--max-area", "200", "--seed", str(cross), "-o", str(tmp_path / "c")]
     args = build_parser(argv).parse_args(argv)
@@ -259,3 +259,17 @@ def test_a_run_of_one_budget_keeps_the_fronts_other_answers(tmp_path):
     meta.write_text(json.dumps({**json.loads(meta.read_text()), "objective": {"scenarios": "other"}}))
     pareto_front("teeth", [600.0], search, confirm, tmp_path, **kw)
     assert [float(r["budget_m2"]) for r in csv.DictReader((tmp_path / "front.csv").open())] == [600.0]
+
+
+def test_pareto_seeds_reach_the_budgets_they_fit(tmp_path):
+    """--pareto with --seed: each budget scores the seeds that fit it (after the smaller budgets'
+    answers); a budget the seed does not fit never sees it."""
+    calls = []
+    cross = Teeth(side=4.6, teeth_per_side=1, tooth_base=2.25, tooth_height=9.8, tip_fraction=0.96)  # 107.6 m^2
+    pareto_front("teeth", [100.0, 200.0], EvalSettings().with_spacing(1.0), EvalSettings(), tmp_path, budget=6,
+                 answer_mesh=None, ladder=0, evaluate_fn=fake_eval(calls), progress=False, floor=lambda s: 55.0,
+                 seeds={"the cross": cross})
+    seeded = [json.loads(line).get("name") for b in (100, 200)
+              for line in (tmp_path / f"budget-{b}" / "history.jsonl").read_text().splitlines()]
+    at_100 = [json.loads(line).get("name") for line in (tmp_path / "budget-100" / "history.jsonl").read_text().splitlines()]
+    assert "the cross" in seeded and "the cross" not in at_100
