@@ -305,13 +305,25 @@ def stopping_sentence(stop: dict) -> str:
         return ""
     if not stop.get("best_at"):
         return f"No feasible design in {stop['solves']} solves."
+    within = flat_within(stop)
     if stop.get("measure") == "violation":
         return (f"No feasible design in {stop['solves']} solves; the least violation so far was found at solve "
-                f"{stop['best_at']}: " + ("flat over the last half." if stop["flat"] else "**not** flat over the last "
-                                          "half."))
-    return (f"The best so far was found at solve {stop['best_at']} of {stop['solves']}: "
+                f"{stop['best_at']}{within}: " + ("flat over the last half." if stop["flat"] else "**not** flat over "
+                                                  "the last half."))
+    return (f"The best so far was found at solve {stop['best_at']} of {stop['solves']}{within}: "
             + ("flat over the last half." if stop["flat"] else "**not** flat over the last half (the search had not "
                "converged; --max-budget lets it go on)."))
+
+
+def flat_within(stop: dict) -> str:
+    """The stopping rule's tolerance as a clause: the search level's measured scatter when that set it."""
+    tol, scatter = stop.get("tolerance"), stop.get("scatter")
+    if tol is None:
+        return ""
+    if scatter is not None and scatter >= tol:
+        return (f" (within {100 * tol:.1f} %, the median FoM difference of {stop.get('scatter_pairs')} pairs of "
+                "near-identical designs: the search level's own scatter)")
+    return f" (within {100 * tol:.1f} %)"
 
 
 def _verdict(rows, args, mesh: str) -> str:

@@ -28,7 +28,8 @@ from .search import OptimiseResult, best_plane, best_so_far, family, optimise, s
 
 LADDER_DESIGNS = 24  # designs scored at both levels to measure how well the cheap one ranks (>= 20)
 PARETO_COLUMNS = ("budget_m2", "area_m2", "fom_mk", "worst_fom_mk", "mean_fom_mk", "max_loss", "loss_spread",
-                  "feasible", "violations", "mesh_m", "design", "evaluations", "best_at", "flat", "search_fom_mk",
+                  "feasible", "violations", "mesh_m", "design", "evaluations", "best_at", "flat", "flat_tolerance",
+                  "search_scatter", "search_fom_mk",
                   "search_mesh_m", "search_max_loss", "answer_fom_mk", "answer_max_loss", "answer_mesh_m")
 PRESET_COLUMNS = ("preset", "area_m2", "fom_mk", "worst_fom_mk", "mean_fom_mk", "max_loss", "loss_spread", "feasible",
                   "violations")
@@ -84,7 +85,8 @@ def _answer(shape: str, budget_m2: float, res: OptimiseResult, confirm: EvalSett
     best = res.best or res.closest
     stop = res.stopping or {}
     solves = stop.get("solves", len(solved_rows(res.history)))
-    head = {"budget_m2": budget_m2, "evaluations": solves, "best_at": stop.get("best_at"), "flat": stop.get("flat")}
+    head = {"budget_m2": budget_m2, "evaluations": solves, "best_at": stop.get("best_at"), "flat": stop.get("flat"),
+            "flat_tolerance": stop.get("tolerance"), "search_scatter": stop.get("scatter")}
     if best is None:
         return {**head, "area_m2": None, "fom_mk": None, "mesh_m": confirm.spacing, "design": None}
     plane = best_plane(shape, best)
@@ -264,13 +266,14 @@ def verdicts(front: Front, target: float = 0.25, reference: str | None = None) -
         if r["fom_mk"] is None:
             out.append(f"- {r['budget_m2']:g} m^2: no design was scored.")
             continue
+        tol = "" if r.get("flat_tolerance") is None else f" within {100 * r['flat_tolerance']:.1f} %"
         if r.get("feasible") is False:
-            flat = ("" if not r.get("best_at") else f" (the least violation found at solve {r['best_at']}: "
+            flat = ("" if not r.get("best_at") else f" (the least violation found at solve {r['best_at']}{tol}: "
                     + ("flat over the last half)" if r.get("flat") else "**not** flat over the last half)"))
             out.append(f"- {r['budget_m2']:g} m^2: no feasible design in {r['evaluations']} solves{flat}; the closest, "
                        f"{r['area_m2']:.0f} m^2 at {r['fom_mk']:.1f} mK, breaks: {r.get('violations') or '?'}.")
             continue
-        flat = ("" if r.get("flat") is None else f"; best at solve {r['best_at']} of {r['evaluations']}: "
+        flat = ("" if r.get("flat") is None else f"; best at solve {r['best_at']} of {r['evaluations']}{tol}: "
                 + ("flat over the last half" if r["flat"] else "**not** flat over the last half"))
         if reference is not None:
             ref = next((p for p in front.presets if p["preset"] == reference and p["fom_mk"] is not None), None)

@@ -140,22 +140,28 @@ def test_the_search_never_answers_an_infeasible_design_and_the_loss_binds(tmp_pa
     assert nothing.closest["params"]["side"] == pytest.approx(np.sqrt(50.0), rel=0.02)  # the most metal it may have
 
 
+def _rule(stop: dict) -> dict:
+    """The stopping rule's reading without its tolerance (checked on its own below)."""
+    assert stop["tolerance"] == pytest.approx(0.01) and stop["scatter"] is None
+    return {k: stop[k] for k in ("solves", "best_at", "flat", "measure")}
+
+
 def test_with_nothing_feasible_the_stopping_rule_reads_the_least_violation():
     rows = [{"status": "ok", "fom_mk": 50.0, "feasible": False, "margins": [m]} for m in (0.9, 0.5, 0.52, 0.6)]
-    assert flat_over_last_half(rows) == {"solves": 4, "best_at": 2, "flat": True, "measure": "violation"}
+    assert _rule(flat_over_last_half(rows)) == {"solves": 4, "best_at": 2, "flat": True, "measure": "violation"}
     rows.append({"status": "ok", "fom_mk": 60.0, "feasible": False, "margins": [0.3]})
     assert flat_over_last_half(rows)["flat"] is False
 
 
 def test_stopping_rule_reads_where_the_best_so_far_was_found():
     rows = [{"status": "ok", "fom_mk": v} for v in (50, 40, 45, 41, 42, 43)]
-    assert flat_over_last_half(rows) == {"solves": 6, "best_at": 2, "flat": True, "measure": "fom"}
+    assert _rule(flat_over_last_half(rows)) == {"solves": 6, "best_at": 2, "flat": True, "measure": "fom"}
     rows.append({"status": "ok", "fom_mk": 39.9})  # better by less than 1 %: still flat
     assert flat_over_last_half(rows)["flat"] is True
     rows.append({"status": "ok", "fom_mk": 35.0})  # better by 12 % at the end: not flat
-    assert flat_over_last_half(rows) == {"solves": 8, "best_at": 8, "flat": False, "measure": "fom"}
+    assert _rule(flat_over_last_half(rows)) == {"solves": 8, "best_at": 8, "flat": False, "measure": "fom"}
     rows += [{"status": "failed", "fom_mk": None}] * 8 + [{"status": "ok", "fom_mk": 10, "feasible": False}]
-    assert flat_over_last_half(rows) == {"solves": 17, "best_at": 8, "flat": True, "measure": "fom"}  # an infeasible one never counts
+    assert _rule(flat_over_last_half(rows)) == {"solves": 17, "best_at": 8, "flat": True, "measure": "fom"}  # an infeasible one never counts
 
 
 def test_max_budget_goes_on_until_flat(tmp_path):
@@ -233,3 +239,23 @@ def test_a_candidate_is_scored_with_one_sky_convolution(monkeypatch):
     beam = __import__("groundplane.beam", fromlist=["Beam"]).Beam.load(example)
     alone = figure_of_merit(beam.frequency_smoothed(SMOOTHING_DEGREE), settings.fom).lst_averaged_mk
     assert row["fom_smoothed_mk"] == pytest.approx(alone, rel=1e-9)
+
+
+def test_the_flat_tolerance_is_the_search_levels_own_scatter_where_that_is_larger():
+    """Near-identical designs (every parameter within 0.1 % of its range) whose FoMs differ by ~2.5 %
+    are the search level's remeshing, not progress: a best that creeps by less than that late in
+    the search is flat; with fewer than 20 such pairs the rule keeps its 1 %."""
+    rng = np.random.default_rng(0)
+    span = np.array([10.0, 10.0])
+    far = [{"status": "ok", "fom_mk": 100.0 - i, "x": [float(i), 0.0], "integer": None} for i in range(10)]
+    near = [{"status": "ok", "fom_mk": 90.0 * (1 + 0.08 * rng.random()), "x": [5.0 + 1e-4 * i, 5.0], "integer": None}
+            for i in range(12)]  # 66 pairs within 0.1 % of the range, their FoMs spread over 8 %
+    late = [{"status": "ok", "fom_mk": min(r["fom_mk"] for r in near) * 0.985, "x": [5.0, 5.0], "integer": None}]
+    rows = far + near + late
+    plain = flat_over_last_half(rows)  # 1 %: the late 1.5 % step is progress, found at the last solve
+    assert plain["flat"] is False and plain["best_at"] == len(rows)
+    stop = flat_over_last_half(rows, span=span)
+    assert stop["scatter_pairs"] >= 66 and 0.015 < stop["scatter"] < 0.08 and stop["tolerance"] == stop["scatter"]
+    assert stop["best_at"] < len(rows)
+    few = flat_over_last_half(far + near[:5] + late, span=span)  # 15 pairs (six near designs): not enough
+    assert few["scatter"] is None and few["tolerance"] == pytest.approx(0.01) and few["scatter_pairs"] == 15
