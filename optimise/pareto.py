@@ -387,8 +387,13 @@ def convergence_figure(front: Front, path: Path) -> Path:
         refine = [i for i, r in enumerate(solved) if str(r.get("phase", "")).startswith("refine")]
         if refine:
             ax.plot(x[refine], best[refine], ".", color=f"C{k}", ms=3)
-    ax.set(xlabel="solves (dots: local refinement)", ylabel="best feasible FoM so far, search level (mK)",
-           title="Search convergence per metal budget")
+        stop = res.stopping or {}
+        if len(best) and np.isfinite(best[-1]) and stop.get("tolerance") is not None:
+            # the stopping rule drawn: the final best's tolerance band, and the half the best must lie before
+            ax.axhspan(best[-1], best[-1] * (1 + stop["tolerance"]), color=f"C{k}", alpha=0.12, lw=0)
+            ax.axvline(len(solved) / 2, color=f"C{k}", ls=":", lw=0.8)
+    ax.set(xlabel="solves (dots: local refinement; dotted: half the solves; band: the final best's flat tolerance)",
+           ylabel="best feasible FoM so far, search level (mK)", title="Search convergence per metal budget")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, title="budget")
     return finish_figure(fig, path)
