@@ -207,7 +207,7 @@ def pareto_front(shape: str, budgets: list[float], settings: EvalSettings, confi
 
 def earlier_rows(out: Path, budgets: list[float], searched: Path) -> list[dict[str, Any]]:
     """The rows of ``out/front.csv`` for budgets this run does not search, kept when their search
-    (``budget-<A>/search.json``) had the same shape, settings and objective as ``searched``'s: a
+    (``budget-<A>/search.json``) had the same shape, settings, objective and model as ``searched``'s: a
     run of one budget (resuming it, say) must not drop the front's other answers, nor keep answers
     to another question."""
     import csv
@@ -217,7 +217,10 @@ def earlier_rows(out: Path, budgets: list[float], searched: Path) -> list[dict[s
             search = json.loads((d / "search.json").read_text())
         except (OSError, ValueError):
             return None
-        return search.get("shape"), search.get("settings"), search.get("objective")
+        return search.get("shape"), search.get("settings"), search.get("objective"), search.get("model")
+
+    def same(a: Any, b: Any) -> bool:  # a search.json from before the model was recorded matches any model
+        return a is not None and b is not None and a[:3] == b[:3] and (None in (a[3], b[3]) or a[3] == b[3])
 
     path, mine = out / "front.csv", identity(searched)
     if mine is None or not path.exists():
@@ -229,7 +232,7 @@ def earlier_rows(out: Path, budgets: list[float], searched: Path) -> list[dict[s
                 a = float(r["budget_m2"])
             except (KeyError, ValueError):
                 continue
-            if a not in budgets and identity(out / f"budget-{a:g}") == mine:
+            if a not in budgets and same(identity(out / f"budget-{a:g}"), mine):
                 kept.append({k: _cell_value(k, v) for k, v in r.items() if k in PARETO_COLUMNS})
     return kept
 

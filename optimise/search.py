@@ -248,6 +248,14 @@ def same_search(out: Path, ident: dict[str, Any]) -> None:
             old = json.loads(path.read_text())
         except (OSError, json.JSONDecodeError) as exc:
             raise UserInputError(f"{path}: unreadable ({exc}); remove it only if {out} holds this search") from None
+        if "model" not in old and "model" in ident and {**old, "model": ident["model"]} == ident:
+            # written before search.json recorded the model: take today's, and say so (its rows cannot tell)
+            print(f"{path}: no model version recorded; recorded now as {ident['model']['engine']} model "
+                  f"v{ident['model']['version']} (today's): rows solved by an older model cannot be told apart",
+                  file=sys.stderr)
+            old = ident
+            with atomic_path(path, suffix=".tmp.json") as tmp:
+                tmp.write_text(json.dumps(ident, indent=1) + "\n")
         if old != ident:
             diff = _differences(old, ident)
             raise UserInputError(f"{out} holds a search with other settings ({'; '.join(diff)}): its FoMs would be "
@@ -372,8 +380,19 @@ def _open_search(out_dir: str | Path, shape: str, max_area: float, settings: Eva
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     extra = {**({"strategy": strategy} if strategy != "local" else {}), **({"objective": objective} if objective else {})}
-    same_search(out, {"shape": shape, "max_area": max_area, "settings": settings.identity(), **extra})
+    same_search(out, {"shape": shape, "max_area": max_area, "settings": settings.identity(), **extra,
+                      "model": engine_model(settings)})
     return out
+
+
+def engine_model(settings: EvalSettings) -> dict[str, Any] | None:
+    """The engine and its model version a search's FoMs come from: a resume under another model
+    version would replay the old model's FoMs beside the new one's (the beam cache keys carry it;
+    a history's rows do not)."""
+    from solvers.engines import ENGINES
+
+    engine = settings.identity().get("engine")
+    return {"engine": engine, "version": int(ENGINES[engine].model_version)} if engine in ENGINES else None
 
 
 def _answer(ev: "_Evaluator", fine: EvalSettings | None, out: Path, confirm_top: int,

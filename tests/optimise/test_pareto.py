@@ -255,8 +255,17 @@ def test_a_run_of_one_budget_keeps_the_fronts_other_answers(tmp_path):
     again = {float(r["budget_m2"]): r for r in csv.DictReader((tmp_path / "front.csv").open())}
     assert set(again) == {200.0, 600.0} and again[200.0] == first[200.0]
     assert [r["budget_m2"] for r in front.rows] == [200.0, 600.0] and front.rows[0]["evaluations"] == 8
-    meta = tmp_path / "budget-200" / "search.json"  # the 200 search asked another question: not kept
-    meta.write_text(json.dumps({**json.loads(meta.read_text()), "objective": {"scenarios": "other"}}))
+    meta = tmp_path / "budget-200" / "search.json"
+    recorded = json.loads(meta.read_text())
+    meta.write_text(json.dumps({k: v for k, v in recorded.items() if k != "model"}))  # written before models were
+    pareto_front("teeth", [600.0], search, confirm, tmp_path, **kw)
+    assert [float(r["budget_m2"]) for r in csv.DictReader((tmp_path / "front.csv").open())] == [200.0, 600.0]
+    meta.write_text(json.dumps({**recorded, "model": {"engine": "surface", "version": -1}}))  # another model: not kept
+    pareto_front("teeth", [600.0], search, confirm, tmp_path, **kw)
+    assert [float(r["budget_m2"]) for r in csv.DictReader((tmp_path / "front.csv").open())] == [600.0]
+    meta.write_text(json.dumps(recorded))
+    pareto_front("teeth", [200.0, 600.0], search, confirm, tmp_path, **kw)  # both again (replayed)
+    meta.write_text(json.dumps({**recorded, "objective": {"scenarios": "other"}}))  # another question: not kept
     pareto_front("teeth", [600.0], search, confirm, tmp_path, **kw)
     assert [float(r["budget_m2"]) for r in csv.DictReader((tmp_path / "front.csv").open())] == [600.0]
 

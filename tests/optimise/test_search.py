@@ -170,6 +170,37 @@ def test_a_search_resumed_with_other_settings_is_refused_and_a_new_confirm_mesh_
     assert calls[n:] == [pytest.approx(0.5 * sp)] and res.best["confirmed_at"] == pytest.approx(0.5 * sp)
 
 
+def test_a_search_solved_by_another_model_version_is_refused_and_an_unrecorded_one_is_upgraded(tmp_path, monkeypatch,
+                                                                                               capsys):
+    """search.json records the engine's model version: its FoMs are that model's, so a resume
+    under another one is refused by name; one written before the version was recorded takes
+    today's, and says so."""
+    from groundplane.errors import UserInputError
+    from solvers.engines import ENGINES
+
+    calls = []
+
+    def ev(candidate, settings):
+        calls.append(candidate.name)
+        return {"status": "ok", "lst_averaged_fom_mk": 100.0 + candidate.plane.tooth_base, "name": candidate.name}
+
+    kw = dict(budget=4, integer_values=(3,), evaluate_fn=ev, progress=False, confirm_top=0)
+    optimise("sawtooth", 300.0, EvalSettings(), tmp_path, **kw)
+    meta = json.loads((tmp_path / "search.json").read_text())
+    version = ENGINES["surface"].model_version
+    assert meta["model"] == {"engine": "surface", "version": version}
+    n = len(calls)
+    monkeypatch.setattr(ENGINES["surface"], "model_version", version + 1)
+    with pytest.raises(UserInputError, match=rf"model\.version: {version} -> {version + 1}"):
+        optimise("sawtooth", 300.0, EvalSettings(), tmp_path, **kw)
+    monkeypatch.undo()
+    del meta["model"]  # as written before the version was recorded
+    (tmp_path / "search.json").write_text(json.dumps(meta))
+    optimise("sawtooth", 300.0, EvalSettings(), tmp_path, **kw)
+    assert "no model version recorded; recorded now as surface model" in capsys.readouterr().err
+    assert json.loads((tmp_path / "search.json").read_text())["model"]["version"] == version and len(calls) == n
+
+
 def test_thin_strips_are_too_fine_for_the_mesh():
     """Long teeth a cell wide have no sharp vertex for the spike rule; the opening catches them,
     and leaves the paper's presets alone."""
