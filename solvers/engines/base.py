@@ -10,6 +10,7 @@ import sys
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
+from concurrent.futures import wait
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import nullcontext
 from dataclasses import dataclass, field
@@ -23,7 +24,7 @@ from groundplane.errors import SettingsError, SolveError, SolverError
 from groundplane.options import option, parse_freqs
 
 from .patterns import mirror_quadrant
-from .workers import core_capped, process_pool, usable_workers
+from .workers import core_capped, discard_shared_pool, process_pool, shared_pool, terminate_pool, usable_workers
 
 DEFAULT_FREQS_MHZ = tuple(float(f) for f in np.arange(40.0, 101.0))  # SPEC: 40-100 MHz, 1 MHz steps
 
@@ -371,19 +372,37 @@ class Solver(ABC):
                 bar.close()
 
     def _attempt(self, plan: Plan, todo: list[float]):
-        pool = process_pool(usable_workers(self.workers, len(todo))) if self.workers >= 1 and todo else None
         jobs = [(plan.job, plan.payload, f) for f in todo]
+        if not (self.workers >= 1 and todo):
+            yield from map(_timed, jobs)
+            return
+        import threading
+
+        n = usable_workers(self.workers, len(todo))
+        # the main thread keeps its pool for the next solve (a search's next candidate); another
+        # thread's solve has its own, so that one caller's interrupt never stops another's jobs
+        shared = threading.current_thread() is threading.main_thread()
+        pool = shared_pool(n, self.name) if shared else process_pool(n)
+        futures = [pool.submit(_timed, job) for job in jobs]
         try:
-            yield from (pool.map(_timed, jobs) if pool else map(_timed, jobs))
-        except (KeyboardInterrupt, GeneratorExit):
-            if pool is not None:  # interrupted: abandon the frequencies in flight rather than wait for them
-                for proc in list(getattr(pool, "_processes", {}).values()):  # no public way to stop a running job
-                    proc.terminate()
-                pool.shutdown(wait=True, cancel_futures=True)
+            for fut in futures:
+                yield fut.result()
+        except (KeyboardInterrupt, GeneratorExit, BrokenProcessPool):
+            # interrupted, or the caller stopped reading: abandon the frequencies in flight rather
+            # than wait for them; a broken pool (a worker killed) is not kept either
+            if shared:
+                discard_shared_pool(terminate=True)
+            else:
+                terminate_pool(pool)
                 pool = None
             raise
+        except BaseException:  # a job failed: the others stop at the next frequency, not the next solve
+            for fut in futures:
+                fut.cancel()
+            wait(futures)
+            raise
         finally:
-            if pool is not None:
+            if not shared and pool is not None:
                 pool.shutdown(cancel_futures=True)
 
     def _assemble(self, design: Design, freqs: np.ndarray, plan: Plan, results: dict, key: str) -> Beam:

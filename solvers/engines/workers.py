@@ -71,6 +71,44 @@ def usable_workers(workers: int, jobs: int) -> int:
     return n
 
 
+KEEP_POOL = True  # False: a pool spawned for every solve, as before 2026-12-04 (benchmarks/bench_shared_pool.py)
+_SHARED: dict[tuple, ProcessPoolExecutor] = {}  # at most one entry: (engine, workers, environment) -> its pool
+
+
+def shared_pool(workers: int, engine: str) -> ProcessPoolExecutor:
+    """:func:`process_pool` of ``workers`` processes, kept for the next solve of this process: a
+    search solves hundreds of candidates one after another, and spawning the workers and importing
+    the engines cost ~2 s each time (docs/speed.md). A pool of another size is shut down first
+    (a worker kept idle would hold its last design's model in memory beside the others), and so is
+    one started under another environment (workers read theirs, e.g. ``GROUNDPLANE_CACHE``, once)
+    or for another engine (the engines' own OpenMP runtimes do not load into one process: PyNEC
+    after the surface engine's fails with "cannot allocate memory in static TLS block")."""
+    key = (engine, workers, tuple(sorted(os.environ.items())))
+    pool = _SHARED.get(key) if KEEP_POOL else None
+    if pool is None:
+        discard_shared_pool()
+        pool = _SHARED[key] = process_pool(workers)
+    return pool
+
+
+def discard_shared_pool(terminate: bool = False) -> None:
+    """Shut the kept pool down (``terminate``: its workers killed first, for an interrupted or broken
+    solve whose jobs must not run on); the next :func:`shared_pool` starts a new one."""
+    for pool in _SHARED.values():
+        if terminate:
+            terminate_pool(pool)
+        else:
+            pool.shutdown(wait=True, cancel_futures=True)
+    _SHARED.clear()
+
+
+def terminate_pool(pool: ProcessPoolExecutor) -> None:
+    """Kill ``pool``'s workers (their running jobs with them) and shut it down."""
+    for proc in list((getattr(pool, "_processes", None) or {}).values()):  # no public way to stop a running job
+        proc.terminate()
+    pool.shutdown(wait=True, cancel_futures=True)
+
+
 def process_pool(workers: int) -> ProcessPoolExecutor:
     """Spawned worker processes (engines bundle their own OpenMP runtimes, which must not
     share a process with healpy's) that die with this process."""

@@ -259,10 +259,14 @@ def _model_key(prob: Problem, symmetric: bool) -> str:
 
 def fast_model(prob: Problem, symmetric: bool) -> FastModel:
     """:func:`build_fast_model` for this design, reused across the frequencies and soils a
-    worker process solves (keyed by the geometry; one design kept)."""
+    worker process solves (keyed by the geometry; one design kept, and what it built with it)."""
     key = _model_key(prob, symmetric)
     if key not in _CACHE:
-        _CACHE.clear()
+        # a worker is kept from one design to the next (``workers.shared_pool``): let go of everything
+        # the last design held (its frequency's terms, LU and currents reference its model) before
+        # building this one, so that a worker never holds two designs' models at once
+        for kept in (_CACHE, _TERMS, _LU, _START):
+            kept.clear()
         symmetry = MirrorSymmetry.of(prob.mesh, prob.rwg) if symmetric else None
         _CACHE[key] = build_fast_model(prob, symmetry)
     return _CACHE[key]

@@ -205,3 +205,54 @@ def test_frequencies_given_in_hz_are_refused_not_solved_for_hours():
         series._n_terms(3.0)
     series.k_max = 3.35
     assert 10 < series._n_terms(3.0) < 60
+
+
+def worker_pid(payload: str, freq: float):
+    """Worker job: which process solved it."""
+    time.sleep(0.05)
+    return np.full((91, 91), float(os.getpid())), {}
+
+
+def fails_at_60(payload: str, freq: float):
+    if freq == 60.0:
+        raise RuntimeError("no convergence at 60 MHz")
+    return worker_pid(payload, freq)
+
+
+def _stand_in(job, folder, workers):
+    solver = StandIn(job, folder, workers=workers, use_cache=False)
+    solver.settings = type("S", (), {"as_dict": lambda self: {}})()
+    return solver
+
+
+def test_successive_solves_share_their_worker_processes(tmp_path, monkeypatch):
+    """A search solves candidate after candidate: the workers (spawned, the engines imported: ~2 s)
+    are kept from one solve to the next, through a job's failure, until a solve asks for another number."""
+    from solvers.engines.workers import discard_shared_pool
+
+    discard_shared_pool()
+    pids = set()
+    for side in (2.0, 3.0, 4.0):
+        beam = _stand_in(worker_pid, tmp_path, 2).solve(Design(Square(side), Soil()), [50.0, 60.0, 70.0])
+        pids |= set(beam.gain[:, 0, 0].astype(int))
+    assert os.getpid() not in pids and 1 <= len(pids) <= 2, "three solves, one pool of two workers"
+    with pytest.raises(SolveError, match="no convergence at 60 MHz"):
+        _stand_in(fails_at_60, tmp_path, 2).solve(Design(Square(5.0), Soil()), [50.0, 60.0, 70.0, 80.0, 90.0])
+    beam = _stand_in(worker_pid, tmp_path, 2).solve(Design(Square(6.0), Soil()), [50.0, 60.0])
+    assert set(beam.gain[:, 0, 0].astype(int)) <= pids, "a job's failure leaves the pool working"
+    one = _stand_in(worker_pid, tmp_path, 1).solve(Design(Square(7.0), Soil()), [50.0, 60.0])
+    assert len(set(one.gain[:, 0, 0])) == 1, "--workers 1: one process"
+    assert not any(_alive(p) for p in pids), "another size of pool: the two workers were shut down"
+    first = set(_stand_in(worker_pid, tmp_path, 1).solve(Design(Square(8.0), Soil()), [50.0]).gain[:, 0, 0])
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path / "elsewhere"))
+    second = set(_stand_in(worker_pid, tmp_path, 1).solve(Design(Square(9.0), Soil()), [50.0]).gain[:, 0, 0])
+    assert first == set(one.gain[:, 0, 0]) and not first & second, "a worker reads its environment once"
+
+    class OtherEngine(StandIn):
+        name = "other-stand-in"
+
+    other = OtherEngine(worker_pid, tmp_path, workers=1, use_cache=False)
+    other.settings = type("S", (), {"as_dict": lambda self: {}})()
+    third = set(other.solve(Design(Square(9.5), Soil()), [50.0]).gain[:, 0, 0])
+    assert not third & second, "each engine its own workers (their OpenMP runtimes do not mix)"
+    discard_shared_pool()
