@@ -11,14 +11,32 @@ from pathlib import Path
 
 
 def available_memory_bytes() -> int | None:
-    """MemAvailable from /proc/meminfo (Linux), else None (no check)."""
+    """MemAvailable from /proc/meminfo (Linux), else None (no check), plus what the kept pool's
+    workers hold beyond a fresh worker (:func:`shared_pool`): each lets its last design go before
+    building the next, so that memory is the next solve's too."""
     try:
         for line in Path("/proc/meminfo").read_text().splitlines():
             if line.startswith("MemAvailable:"):
-                return int(line.split()[1]) * 1024
+                return int(line.split()[1]) * 1024 + kept_worker_bytes()
     except OSError:
         return None
     return None
+
+
+FRESH_WORKER_BYTES = 300 * 2**20  # a spawned worker with an engine imported keeps at least this (not released)
+
+
+def kept_worker_bytes() -> int:
+    """Resident memory of the kept pool's workers beyond ``FRESH_WORKER_BYTES`` each (Linux; 0 elsewhere)."""
+    total = 0
+    for pool in _SHARED.values():
+        for proc in list((getattr(pool, "_processes", None) or {}).values()):
+            try:
+                resident_pages = int(Path(f"/proc/{proc.pid}/statm").read_text().split()[1])
+            except (OSError, ValueError, IndexError):
+                continue
+            total += max(0, resident_pages * os.sysconf("SC_PAGE_SIZE") - FRESH_WORKER_BYTES)
+    return total
 
 
 def worker_init(parent_pid: int | None = None) -> None:

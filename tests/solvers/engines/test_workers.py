@@ -256,3 +256,23 @@ def test_successive_solves_share_their_worker_processes(tmp_path, monkeypatch):
     third = set(other.solve(Design(Square(9.5), Soil()), [50.0]).gain[:, 0, 0])
     assert not third & second, "each engine its own workers (their OpenMP runtimes do not mix)"
     discard_shared_pool()
+
+
+def holds_memory(payload: str, freq: float):
+    """Worker job: keep ~800 MB resident after returning (as a kept worker keeps its last design)."""
+    global _HELD
+    _HELD = np.ones(100_000_000)  # 800 MB, touched
+    return np.full((91, 91), freq), {}
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_memory_a_kept_worker_holds_counts_as_available():
+    """The memory check before a solve must not refuse a design for memory the kept workers will let go."""
+    from solvers.engines.workers import discard_shared_pool, kept_worker_bytes
+
+    discard_shared_pool()
+    assert kept_worker_bytes() == 0
+    _stand_in(holds_memory, ".", 1).solve(Design(Square(2.0), Soil()), [50.0])
+    assert kept_worker_bytes() > 400 * 2**20
+    discard_shared_pool()
+    assert kept_worker_bytes() == 0
