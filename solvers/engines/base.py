@@ -24,7 +24,15 @@ from groundplane.errors import SettingsError, SolveError, SolverError
 from groundplane.options import option, parse_freqs
 
 from .patterns import mirror_quadrant
-from .workers import core_capped, discard_shared_pool, process_pool, shared_pool, terminate_pool, usable_workers
+from .workers import (
+    core_capped,
+    discard_shared_pool,
+    process_pool,
+    shared_pool,
+    terminate_pool,
+    unguarded_main_script,
+    usable_workers,
+)
 
 DEFAULT_FREQS_MHZ = tuple(float(f) for f in np.arange(40.0, 101.0))  # SPEC: 40-100 MHz, 1 MHz steps
 
@@ -358,7 +366,8 @@ class Solver(ABC):
                 except BrokenProcessPool as exc:
                     if attempt == 2:
                         raise SolveError(f"{design.label()}: a {self.name} worker process died twice "
-                                         f"({len(left)} frequencies unsolved; out of memory?)") from exc
+                                         f"({len(left)} frequencies unsolved; "
+                                         f"{unguarded_main_script() or 'out of memory?'})") from exc
                     print(f"{design.label()}: a {self.name} worker process died; retrying the {len(left)} "
                           "unsolved frequencies once", file=sys.stderr)
         except SolveError:

@@ -74,6 +74,21 @@ def _die_with_parent(parent_pid: int) -> None:
     threading.Thread(target=watch, daemon=True, name="die-with-parent").start()
 
 
+def unguarded_main_script() -> str | None:
+    """Why spawned workers die at once when the program is a script whose solve is not under
+    ``if __name__ == "__main__":`` (each worker imports the script again, which solves again, which
+    Python refuses in a worker), or None: a guess from the script's text, said as one."""
+    path = getattr(sys.modules.get("__main__"), "__file__", None)
+    try:
+        text = Path(path).read_text() if path else None
+    except (OSError, UnicodeDecodeError):
+        return None
+    if text is None or "__main__" in text:
+        return None
+    return (f"{path} has no `if __name__ == \"__main__\":` block: the worker processes are spawned and import "
+            "the script again; put the solve under that block, or use workers=0")
+
+
 def core_capped(workers: int) -> int:
     """Processes that run at once for ``workers`` asked: at least one, at most the cores."""
     return max(1, min(workers, os.cpu_count() or 1))

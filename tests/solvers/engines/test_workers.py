@@ -276,3 +276,20 @@ def test_memory_a_kept_worker_holds_counts_as_available():
     assert kept_worker_bytes() > 400 * 2**20
     discard_shared_pool()
     assert kept_worker_bytes() == 0
+
+
+def test_a_script_without_a_main_block_is_named_when_its_workers_die(tmp_path, monkeypatch):
+    """A script that solves at its top level makes every spawned worker import it and solve again
+    (refused by Python): the pool breaks twice, and the error said 'out of memory?'. It names the cause."""
+    import types
+
+    from solvers.engines.workers import unguarded_main_script
+
+    script = tmp_path / "survey.py"
+    script.write_text("from groundplane.api import solve\nbeam = solve('square-10')\n")
+    monkeypatch.setitem(sys.modules, "__main__", types.SimpleNamespace(__file__=str(script)))
+    assert "survey.py has no `if __name__" in unguarded_main_script()
+    script.write_text("if __name__ == '__main__':\n    pass\n")
+    assert unguarded_main_script() is None
+    monkeypatch.setitem(sys.modules, "__main__", types.SimpleNamespace())  # a notebook, the REPL
+    assert unguarded_main_script() is None
