@@ -392,8 +392,9 @@ class Solver(ABC):
         # thread's solve has its own, so that one caller's interrupt never stops another's jobs
         shared = threading.current_thread() is threading.main_thread()
         pool = shared_pool(n, self.name) if shared else process_pool(n)
-        futures = [pool.submit(_timed, job) for job in jobs]
+        futures = []
         try:
+            futures = [pool.submit(_timed, job) for job in jobs]  # a kept pool may have broken since
             for fut in futures:
                 yield fut.result()
         except (KeyboardInterrupt, GeneratorExit, BrokenProcessPool):

@@ -118,7 +118,7 @@ def shared_pool(workers: int, engine: str) -> ProcessPoolExecutor:
     after the surface engine's fails with "cannot allocate memory in static TLS block")."""
     key = (engine, workers, tuple(sorted(os.environ.items())))
     pool = _SHARED.get(key) if KEEP_POOL else None
-    if pool is None:
+    if pool is None or getattr(pool, "_broken", False):  # a worker killed while the pool waited (OOM killer, a user)
         discard_shared_pool()
         pool = _SHARED[key] = process_pool(workers)
     return pool

@@ -293,3 +293,19 @@ def test_a_script_without_a_main_block_is_named_when_its_workers_die(tmp_path, m
     assert unguarded_main_script() is None
     monkeypatch.setitem(sys.modules, "__main__", types.SimpleNamespace())  # a notebook, the REPL
     assert unguarded_main_script() is None
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="POSIX signals")
+def test_a_kept_worker_killed_between_solves_costs_nothing(tmp_path, capsys):
+    """The OOM killer (or a user) may kill an idle kept worker: the next solve starts a new pool
+    instead of failing twice on the broken one."""
+    from solvers.engines.workers import discard_shared_pool
+
+    discard_shared_pool()
+    first = _stand_in(worker_pid, tmp_path, 2).solve(Design(Square(2.0), Soil()), [50.0, 60.0])
+    for pid in set(first.gain[:, 0, 0].astype(int)):
+        os.kill(int(pid), signal.SIGKILL)
+    time.sleep(0.5)
+    beam = _stand_in(worker_pid, tmp_path, 2).solve(Design(Square(3.0), Soil()), [50.0, 60.0])
+    assert not set(beam.gain[:, 0, 0].astype(int)) & set(first.gain[:, 0, 0].astype(int))
+    discard_shared_pool()
