@@ -46,7 +46,7 @@ class SolveSettings:
     freqs_mhz: tuple[float, ...] = option(DEFAULT_FREQS_MHZ, "frequencies (MHz): LO:HI:STEP (inclusive), a comma "
                                           "list, or fit-band (55:97:1, all the FoM uses) (default 40:100:1)",
                                           flag="--freqs", parse=parse_freqs)
-    workers: int = option(2, "parallel solver processes (0: in this process)")
+    workers: int = option(2, "parallel solver processes (0: in this process), kept from one solve to the next")
 
     def __post_init__(self) -> None:
         if self.workers < 0:
