@@ -162,7 +162,7 @@ def _setup_optimise(p: argparse.ArgumentParser):
 def _run_pareto(args: argparse.Namespace, seeds: dict | None = None) -> int:
     from groundplane.options import parse_freqs
 
-    from .pareto import pareto_front, verdicts, write_report
+    from .pareto import REFERENCE_BAR, pareto_front, verdicts, write_report
 
     if any(not (a > 0) for a in args.pareto):
         raise CLIError(f"--pareto: metal budgets must be positive m^2, got {args.pareto}")
@@ -194,6 +194,9 @@ def _run_pareto(args: argparse.Namespace, seeds: dict | None = None) -> int:
     path = write_report(front, out, invocation(), settings, confirm, objective=describe_set(scenarios, constraints),
                         reference=args.reference, beside=args.beside)
     print("\n".join(verdicts(front)))
+    if args.reference:  # the bar the report also states
+        print(f"against {args.reference} whatever the metal:\n"
+              + "\n".join(verdicts(front, REFERENCE_BAR, args.reference)))
     print(f"report: {path}")
     return 0 if all(r["fom_mk"] is not None for r in front.rows) else 1
 
