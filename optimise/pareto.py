@@ -194,6 +194,7 @@ def pareto_front(shape: str, budgets: list[float], settings: EvalSettings, confi
                        scheduler=scheduler, seeds=smaller, constraints=constraints, max_budget=max_budget,
                        objective={"scenarios": scenarios.identity()} if scenarios is not None else None)
         results[b] = res
+        write_convergence(out / f"budget-{b:g}", res)
         answers.append(_answer(shape, b, res, confirm, answer_mesh, scored, constraints))
         if earlier is None:  # a run of some budgets keeps the others this folder answered with the same objective
             earlier = earlier_rows(out, budgets, out / f"budget-{b:g}")
@@ -377,26 +378,64 @@ def pareto_figure(front: Front, path: Path, beside: list[dict[str, Any]] | None 
     return finish_figure(fig, path)
 
 
-def convergence_figure(front: Front, path: Path) -> Path:
-    """Best-so-far FoM (search level) against solves, one line per budget, exploration and
-    refinement marked: a flat second half says the search has stopped finding better designs."""
+def convergence_curve(res: OptimiseResult) -> dict[str, Any]:
+    """A search's best-so-far FoM after each solve (inf before the first feasible one), the solves
+    of its local refinement and the stopping rule's tolerance: what the convergence figure draws."""
+    solved = solved_rows(res.history)
+    return {"best": np.array(best_so_far(solved), float), "tolerance": (res.stopping or {}).get("tolerance"),
+            "refine": [i for i, r in enumerate(solved) if str(r.get("phase", "")).startswith("refine")]}
+
+
+def write_convergence(folder: Path, res: OptimiseResult) -> None:
+    """``folder/convergence.json``: the search's curve as the stopping rule read it (rows refused on
+    resume as refused), so a later run of other budgets draws this one beside its own."""
+    c = convergence_curve(res)
+    record = {"best_so_far_mk": [float(v) if np.isfinite(v) else None for v in c["best"]], "refine": c["refine"],
+              "tolerance": c["tolerance"]}
+    with atomic_path(folder / "convergence.json", suffix=".tmp.json") as tmp:
+        tmp.write_text(json.dumps(record))
+
+
+def read_convergence(folder: Path) -> dict[str, Any] | None:
+    """A budget's ``convergence.json`` as :func:`convergence_curve` (None when absent or unreadable:
+    a folder from before it was written)."""
+    try:
+        got = json.loads((folder / "convergence.json").read_text())
+        return {"best": np.array([np.inf if v is None else v for v in got["best_so_far_mk"]], float),
+                "refine": [int(i) for i in got.get("refine", [])], "tolerance": got.get("tolerance")}
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def convergence_curves(front: Front, out: Path | None = None) -> dict[float, dict[str, Any]]:
+    """Per budget of the front, its search's curve: this run's searches, and the front's other
+    budgets (kept from earlier runs) from ``out/budget-<A>/convergence.json``."""
+    curves = {b: convergence_curve(res) for b, res in front.results.items()}
+    for r in front.rows if out is not None else []:
+        b = r["budget_m2"]
+        if b not in curves and (got := read_convergence(out / f"budget-{b:g}")) is not None:
+            curves[b] = got
+    return curves
+
+
+def convergence_figure(front: Front, path: Path, out: Path | None = None) -> Path:
+    """Best-so-far FoM (search level) against solves, one line per budget (:func:`convergence_curves`),
+    exploration and refinement marked: a flat second half says the search has stopped finding better designs."""
     from groundplane.plots import finish_figure, pyplot
 
+    curves = convergence_curves(front, out)
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 4.5))
-    for k, (b, res) in enumerate(sorted(front.results.items())):
-        solved = solved_rows(res.history)
-        best = np.array(best_so_far(solved))
-        x = np.arange(1, len(solved) + 1)
+    for k, (b, c) in enumerate(sorted(curves.items())):
+        best = c["best"]
+        x = np.arange(1, len(best) + 1)
         ax.step(x, best, where="post", color=f"C{k}", label=f"{b:g} m$^2$")
-        refine = [i for i, r in enumerate(solved) if str(r.get("phase", "")).startswith("refine")]
-        if refine:
-            ax.plot(x[refine], best[refine], ".", color=f"C{k}", ms=3)
-        stop = res.stopping or {}
-        if len(best) and np.isfinite(best[-1]) and stop.get("tolerance") is not None:
+        if c["refine"]:
+            ax.plot(x[c["refine"]], best[c["refine"]], ".", color=f"C{k}", ms=3)
+        if len(best) and np.isfinite(best[-1]) and c["tolerance"] is not None:
             # the stopping rule drawn: the final best's tolerance band, and the half the best must lie before
-            ax.axhspan(best[-1], best[-1] * (1 + stop["tolerance"]), color=f"C{k}", alpha=0.12, lw=0)
-            ax.axvline(len(solved) / 2, color=f"C{k}", ls=":", lw=0.8)
+            ax.axhspan(best[-1], best[-1] * (1 + c["tolerance"]), color=f"C{k}", alpha=0.12, lw=0)
+            ax.axvline(len(best) / 2, color=f"C{k}", ls=":", lw=0.8)
     ax.set(xlabel="solves (dots: local refinement; dotted: half the solves; band: the final best's flat tolerance)",
            ylabel="best feasible FoM so far, search level (mK)", title="Search convergence per metal budget")
     ax.grid(alpha=0.3)
@@ -415,7 +454,7 @@ def write_report(front: Front, out: Path, command: str, settings: EvalSettings, 
 
     other = read_front(beside) if beside else None
     pareto_figure(front, out / "pareto.png", other, f"beside: {beside}")
-    convergence_figure(front, out / "convergence.png")
+    convergence_figure(front, out / "convergence.png", out)
     for r in front.rows:
         if r["design"]:
             plane = from_dict(json.loads(r["design"]))

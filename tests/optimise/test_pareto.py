@@ -8,7 +8,7 @@ import pytest
 
 from groundplane.shapes import PRESETS, Teeth
 from optimise.evaluate import EvalSettings
-from optimise.pareto import pareto_front, verdicts, write_report
+from optimise.pareto import convergence_curves, pareto_front, verdicts, write_report
 from optimise.search import optimise
 
 
@@ -255,6 +255,9 @@ def test_a_run_of_one_budget_keeps_the_fronts_other_answers(tmp_path):
     again = {float(r["budget_m2"]): r for r in csv.DictReader((tmp_path / "front.csv").open())}
     assert set(again) == {200.0, 600.0} and again[200.0] == first[200.0]
     assert [r["budget_m2"] for r in front.rows] == [200.0, 600.0] and front.rows[0]["evaluations"] == 8
+    curves = convergence_curves(front, tmp_path)  # the convergence figure draws the kept budget's search too
+    assert sorted(curves) == [200.0, 600.0] and len(curves[200.0]["best"]) == 8
+    assert convergence_curves(front).keys() == {600.0}
     meta = tmp_path / "budget-200" / "search.json"
     recorded = json.loads(meta.read_text())
     meta.write_text(json.dumps({k: v for k, v in recorded.items() if k != "model"}))  # written before models were
