@@ -44,12 +44,17 @@ def finish_figure(fig, path: str | Path, dpi: int = 110) -> Path:
 
 
 def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
-    """Write a figure atomically to ``path``, whose suffix names the format."""
+    """Write a figure atomically to ``path``, whose suffix names the format; the same figure
+    gives the same bytes (no date, fixed SVG ids), so a committed figure changes only with its content."""
+    import matplotlib
+
     from .files import atomic_path
 
     path = check_figure_path(path)
-    with atomic_path(path, suffix=path.suffix) as tmp:
-        fig.savefig(tmp, dpi=dpi, format=path.suffix[1:].lower())
+    fmt = path.suffix[1:].lower()
+    metadata = {"svg": {"Date": None}, "pdf": {"CreationDate": None}}.get(fmt)
+    with atomic_path(path, suffix=path.suffix) as tmp, matplotlib.rc_context({"svg.hashsalt": "groundplane"}):
+        fig.savefig(tmp, dpi=dpi, format=fmt, metadata=metadata)
     return path
 
 

@@ -54,6 +54,8 @@ def test_drawings(tmp_path):
         assert p.stat().st_size > 5000
     with pytest.raises(ValueError, match="unknown output format"):
         cad.export(PRESETS["plus-30"], tmp_path / "d.dxf")
+    again = cad.export(PRESETS["plus-30"], tmp_path / "again.svg")  # no date, fixed ids: a rerun changes no byte
+    assert again.read_bytes() == (tmp_path / "d.svg").read_bytes()
 
 
 
