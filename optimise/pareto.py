@@ -86,7 +86,7 @@ def _answer(shape: str, budget_m2: float, res: OptimiseResult, confirm: EvalSett
     feasible design, the one that came closest (``feasible`` False, and what it breaks)."""
     best = res.best or res.closest
     stop = res.stopping or {}
-    solves = stop.get("solves", len(solved_rows(res.history)))
+    solves = stop.get("solves", len(res.solved()))
     head = {"budget_m2": budget_m2, "evaluations": solves, "best_at": stop.get("best_at"), "flat": stop.get("flat"),
             "flat_tolerance": stop.get("tolerance"), "search_scatter": stop.get("scatter")}
     if best is None:
@@ -381,7 +381,7 @@ def pareto_figure(front: Front, path: Path, beside: list[dict[str, Any]] | None 
 def convergence_curve(res: OptimiseResult) -> dict[str, Any]:
     """A search's best-so-far FoM after each solve (inf before the first feasible one), the solves
     of its local refinement and the stopping rule's tolerance: what the convergence figure draws."""
-    solved = solved_rows(res.history)
+    solved = res.solved()
     return {"best": np.array(best_so_far(solved), float), "tolerance": (res.stopping or {}).get("tolerance"),
             "refine": [i for i, r in enumerate(solved) if str(r.get("phase", "")).startswith("refine")]}
 

@@ -163,6 +163,12 @@ class OptimiseResult:
     confirmed: list[dict[str, Any]] = field(default_factory=list)
     closest: dict[str, Any] | None = None  # with no feasible design: the one that broke the constraints least
     stopping: dict[str, Any] = field(default_factory=dict)  # solves, where the best was found, flat over the last half
+    counted: list[dict[str, Any]] | None = None  # the solved rows the stopping rule read, in its order
+
+    def solved(self) -> list[dict[str, Any]]:
+        """The solves this search counted (what its stopping rule and convergence curve read): a
+        history may hold more, from a run with a larger budget or another path before a rule changed."""
+        return self.counted if self.counted is not None else solved_rows(self.history)
 
 
 def smallest_feature(plane: GroundPlane) -> tuple[float, float]:
@@ -368,7 +374,8 @@ def optimise(
     stopping = _until_flat(fam, ev, algorithm, max(budget, max_budget or budget))
     fine = (confirm_settings or settings.with_spacing(confirm_mesh)) if (confirm_mesh or confirm_settings) else None
     best, confirmed = _answer(ev, fine, out, confirm_top, progress)
-    return OptimiseResult(best, ev.hist.rows, out, confirmed, None if best else ev.closest(), stopping)
+    return OptimiseResult(best, ev.hist.rows, out, confirmed, None if best else ev.closest(), stopping,
+                          list(ev.counted))
 
 
 def _open_search(out_dir: str | Path, shape: str, max_area: float, settings: EvalSettings, strategy: str,

@@ -258,6 +258,8 @@ def test_a_run_of_one_budget_keeps_the_fronts_other_answers(tmp_path):
     curves = convergence_curves(front, tmp_path)  # the convergence figure draws the kept budget's search too
     assert sorted(curves) == [200.0, 600.0] and len(curves[200.0]["best"]) == 8
     assert convergence_curves(front).keys() == {600.0}
+    fewer = pareto_front("teeth", [600.0], search, confirm, tmp_path, **{**kw, "budget": 6})  # the history holds 8
+    assert len(convergence_curves(fewer)[600.0]["best"]) == fewer.results[600.0].stopping["solves"] == 6
     meta = tmp_path / "budget-200" / "search.json"
     recorded = json.loads(meta.read_text())
     meta.write_text(json.dumps({k: v for k, v in recorded.items() if k != "model"}))  # written before models were
