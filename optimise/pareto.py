@@ -49,6 +49,7 @@ class Front:
 
 REFERENCE_BAR = 0.15  # the robust-design issue's bar: this far below the reference preset, whatever its metal
 
+
 def _fom(candidate: Candidate, settings: EvalSettings, evaluate_fn) -> float | None:
     return _scored(candidate, settings, evaluate_fn)["fom_mk"]
 
