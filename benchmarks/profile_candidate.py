@@ -50,6 +50,8 @@ def main() -> None:
     ap.add_argument("--warm-tables", action="store_true")
     ap.add_argument("--cold-model", action="store_true",
                     help="with --warm-tables: build the design's model again in the profiled run")
+    ap.add_argument("--soils", type=int, default=5, choices=range(1, 6),
+                    help="the first N soils of the set (1: MRO alone, the one-soil solve of bench_surface.py)")
     ap.add_argument("--top", type=int, default=30)
     ap.add_argument("-o", "--out")
     ap.add_argument("--stats", help="also write cProfile's raw statistics here (for pstats: callers, callees)")
@@ -63,7 +65,7 @@ def main() -> None:
 
     plane = from_file(args.design) if args.design.endswith(".json") else PRESETS[args.design]
     freqs = parse_freqs(args.freqs)
-    designs = [Design(plane, Soil(*s)) for s in SOILS]
+    designs = [Design(plane, Soil(*s)) for s in SOILS[:args.soils]]
 
     def solver():
         return SurfaceSolver(SurfaceSettings(spacing=args.mesh), workers=0, use_cache=False)
@@ -86,7 +88,7 @@ def main() -> None:
     if args.stats:
         prof.dump_stats(args.stats)
     stats = pstats.Stats(prof)
-    lines = [f"{args.design} at {args.mesh:g} m, {len(freqs)} frequencies ({args.freqs}), 5 soils together, one "
+    lines = [f"{args.design} at {args.mesh:g} m, {len(freqs)} frequencies ({args.freqs}), {args.soils} soil(s) together, one "
              f"process, beam cache cold, Sommerfeld tables {'warm' if args.warm_tables else 'cold'}, "
              f"design model {'warm' if args.warm_tables and not args.cold_model else 'cold'}: {wall:.1f} s",
              "", "phase (cumulative, the outermost call of the functions named):"]

@@ -231,6 +231,15 @@ def test_near_pairs_are_every_pair_within_reach_and_scale_with_the_pairs_kept():
     assert len(pairs) < 60 * len(mesh.tris) and time.perf_counter() - t0 < 60
 
 
+def test_sorted_unique_is_numpys_unique():
+    """The near lists' dedupe (a sort, not numpy 2.3+'s hash table) gives np.unique's sorted values."""
+    from solvers.engines.surface.operators import sorted_unique
+
+    rng = np.random.default_rng(5)
+    for keys in (rng.integers(0, 50, 1000), rng.integers(-2**40, 2**40, 5000), np.zeros(0, np.int64), np.array([7])):
+        assert np.array_equal(sorted_unique(keys), np.unique(keys))
+
+
 def test_a_plane_meshed_far_finer_than_asked_says_which_feature_does_it():
     """A refusal for memory names the cause when a feature far narrower than the mesh sets the
     triangles' size (a coarser --mesh would not help); the paper's presets are never named."""
