@@ -1,7 +1,10 @@
 """Compiled (numba) inner loops of the fast solve. Hand-written because each is a small
 stencil contraction per point pair that numpy can only express with gathers of tens of
 millions of elements (the gathered temporaries, not the arithmetic, were the cost);
-no library offers the pFFT's precorrection. Compiled once per machine (``cache=True``)."""
+no library offers the pFFT's precorrection. Compiled once per machine (``cache=True``). Each
+loop sums a pair's moments in a few locals and writes them once: adding every point pair into
+the [6, P] output touched six cache lines apart each time (1.7x on the grid's moments;
+``benchmarks/bench_compiled_moments.py``)."""
 from __future__ import annotations
 
 import numba
@@ -32,9 +35,11 @@ def rule_moments(po: np.ndarray, wo: np.ndarray, ps: np.ndarray, ws: np.ndarray,
     value at R ~ 0 is 0, as ``operators.kernel``'s (a self pair's coincident points)."""
     n = pairs.shape[0]
     out = np.zeros((6 * (int(direct) + int(image)), n), np.complex128)
+    acc = np.zeros((out.shape[0], 1), np.complex128)  # one pair's sums, written once (see the module doc)
     img_row = 6 if direct else 0
     for p in range(n):
         o, s = pairs[p, 0], pairs[p, 1]
+        acc[:, 0] = 0.0
         for i in range(po.shape[1]):
             xo, yo, zo = po[o, i, 0], po[o, i, 1], po[o, i, 2]
             for j in range(ps.shape[1]):
@@ -44,11 +49,12 @@ def rule_moments(po: np.ndarray, wo: np.ndarray, ps: np.ndarray, ws: np.ndarray,
                 if direct:
                     r = np.sqrt(rho2 + (zo - zs) ** 2)
                     if r > 1e-9:
-                        _add_moments(out, 0, p, np.exp(-1j * k * r) / r * w, xo, yo, xs, ys)
+                        _add_moments(acc, 0, 0, np.exp(-1j * k * r) / r * w, xo, yo, xs, ys)
                 if image:
                     r = np.sqrt(rho2 + (zo + zs) ** 2)
                     if r > 1e-9:
-                        _add_moments(out, img_row, p, np.exp(-1j * k * r) / r * w, xo, yo, xs, ys)
+                        _add_moments(acc, img_row, 0, np.exp(-1j * k * r) / r * w, xo, yo, xs, ys)
+        out[:, p] = acc[:, 0]
     return out
 
 
@@ -61,8 +67,11 @@ def reflected_rule_moments(po: np.ndarray, wo: np.ndarray, ps: np.ndarray, ws: n
     S(R_q - K_q) into ``out_q`` [P]. The kernels are ``ReflectedKernels.lookup``'s: the table
     of the nearest height sum ``zetas``, linear in rho on a grid of ``step``."""
     n_rho = tables.shape[2]
+    acc = np.zeros((6, 1), np.complex128)  # one pair's sums, added once
     for p in range(pairs.shape[0]):
         o, s = pairs[p, 0], pairs[p, 1]
+        acc[:, 0] = 0.0
+        acc_q = 0j
         for i in range(po.shape[1]):
             xo, yo, zo = po[o, i, 0], po[o, i, 1], po[o, i, 2]
             for j in range(ps.shape[1]):
@@ -78,29 +87,36 @@ def reflected_rule_moments(po: np.ndarray, wo: np.ndarray, ps: np.ndarray, ws: n
                 w = sign * wo[o, i] * ws[s, j]
                 a = tables[which, 0, at] * (1 - f) + tables[which, 0, at + 1] * f
                 q = tables[which, 1, at] * (1 - f) + tables[which, 1, at + 1] * f
-                _add_moments(out_a, 0, p, a * w, xo, yo, xs, ys)
-                out_q[p] += q * w
+                _add_moments(acc, 0, 0, a * w, xo, yo, xs, ys)
+                acc_q += q * w
+        out_a[:, p] += acc[:, 0]
+        out_q[p] += acc_q
 
 
 @numba.njit(cache=True, nogil=True)
 def grid_pair_moments(table: np.ndarray, pairs: np.ndarray, ix: np.ndarray, iy: np.ndarray, wx: np.ndarray,
                       wy: np.ndarray, level: np.ndarray, nx: int, ny: int, pts: np.ndarray,
-                      w: np.ndarray) -> np.ndarray:
+                      w: np.ndarray, n_full: int) -> np.ndarray:
     """What the grid puts in for each (obs, src) triangle pair: the six moments [C, 6, P] of
     each kernel channel of ``table`` [n_lev, n_lev, C, 2nx-1, 2ny-1] (on grid offsets) over
-    the pair's 3 x 3 point pairs (points ``pts`` [T, 3, 3], weights ``w`` [T, 3]). A point
+    the pair's 3 x 3 point pairs (points ``pts`` [T, 3, 3], weights ``w`` [T, 3]); channels from
+    ``n_full`` on get S0 alone (a scalar potential's kernel: its other moments stay 0). A point
     pair's grid value is the sum over the two 4 x 4 stencils of w_o w_s K[node_o - node_s];
     the stencils are separable, so their correlations cx, cy [7] weight a 7 x 7 window."""
     n = pairs.shape[0]
     n_ch = table.shape[2]
     out = np.zeros((n_ch, 6, n), np.complex128)
+    acc = np.zeros((n_ch, 6), np.complex128)  # one pair's sums, written once
     cx = np.empty(7)
     cy = np.empty(7)
     for p in range(n):
         o, s = pairs[p, 0], pairs[p, 1]
         lo, ls = level[o], level[s]
+        acc[:, :] = 0.0
         for i in range(3):
+            xo, yo = pts[o, i, 0], pts[o, i, 1]
             for j in range(3):
+                xs, ys = pts[s, j, 0], pts[s, j, 1]
                 cx[:] = 0.0
                 cy[:] = 0.0
                 for a in range(4):
@@ -110,14 +126,30 @@ def grid_pair_moments(table: np.ndarray, pairs: np.ndarray, ix: np.ndarray, iy: 
                 bx = ix[o, i] - ix[s, j] + nx - 1 - 3
                 by = iy[o, i] - iy[s, j] + ny - 1 - 3
                 ww = w[o, i] * w[s, j]
+                rr = xo * xs + yo * ys
                 for c in range(n_ch):
-                    v = 0j
+                    vr = 0.0  # real and imaginary parts apart: the weights are real
+                    vi = 0.0
                     for a in range(7):
-                        row = 0j
+                        row_r = 0.0
+                        row_i = 0.0
                         for b in range(7):
-                            row += cy[b] * table[lo, ls, c, bx + a, by + b]
-                        v += cx[a] * row
-                    _add_moments(out[c], 0, p, v * ww, pts[o, i, 0], pts[o, i, 1], pts[s, j, 0], pts[s, j, 1])
+                            t = table[lo, ls, c, bx + a, by + b]
+                            row_r += cy[b] * t.real
+                            row_i += cy[b] * t.imag
+                        vr += cx[a] * row_r
+                        vi += cx[a] * row_i
+                    g = complex(vr, vi) * ww
+                    acc[c, 0] += g
+                    if c < n_full:
+                        acc[c, 1] += g * xo
+                        acc[c, 2] += g * yo
+                        acc[c, 3] += g * rr
+                        acc[c, 4] += g * xs
+                        acc[c, 5] += g * ys
+        for c in range(n_ch):
+            for m in range(6):
+                out[c, m, p] = acc[c, m]
     return out
 
 

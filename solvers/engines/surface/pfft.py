@@ -338,16 +338,18 @@ def _spectra(model: FastModel, table: np.ndarray) -> np.ndarray:
     return scipy.fft.fft2(circ, axes=(-2, -1), workers=1)
 
 
-def grid_moments(model: FastModel, table: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+def grid_moments(model: FastModel, table: np.ndarray, pairs: np.ndarray, n_full: int | None = None) -> np.ndarray:
     """What the grid puts in for triangle pairs: the six moments [C, 6, P] of each kernel
-    channel of ``table`` (offsets, as :func:`_offset_tables`) over their 3 x 3 point pairs."""
+    channel of ``table`` (offsets, as :func:`_offset_tables`) over their 3 x 3 point pairs; the
+    channels from ``n_full`` on (a scalar potential's kernel) get S0 alone, the rest left 0."""
     from ._compiled import grid_pair_moments
 
     g = model.grid
     ix, iy, wx, wy = model.stencils  # [T, 3], [T, 3, 4]
     pts, w = model.points
     return grid_pair_moments(np.ascontiguousarray(table), np.ascontiguousarray(pairs, dtype=np.int64), ix, iy, wx,
-                             wy, model.level.astype(np.int64), g.nx, g.ny, pts, w)
+                             wy, model.level.astype(np.int64), g.nx, g.ny, pts, w,
+                             table.shape[2] if n_full is None else n_full)
 
 
 def rule_moments(mesh, pairs: np.ndarray, k: float, rule, direct: bool = True, image: bool = False) -> np.ndarray:
@@ -467,7 +469,7 @@ class FrequencyTerms:
         vector_image = prob.ground == "pec"  # over soil the vector potential's image is the tabulated S(R_TE)
         table = _offset_tables(model, k, imaged)
         self.spectra = _spectra(model, table)  # [nl, nl, 1 or 2, sx, sy]
-        grid = grid_moments(model, table, model.pairs)  # [1 or 2, 6, P]
+        grid = grid_moments(model, table, model.pairs, 2 if vector_image else 1)  # [1 or 2, 6, P]
         fill = rule_moments(mesh, model.pairs, k, Q3, True, imaged)  # [6 or 12, P]
         groups = list(model.series(k).moments(k))
         asm = model.assembly()
@@ -619,7 +621,7 @@ class FastOperator:
             table = _reflected_tables(model, kernels)
             kernel_fft += _spectra(model, table)
             asm, mesh, c_q = model.assembly(), prob.mesh, 4 * self.c_phi
-            gm = grid_moments(model, table, model.pairs)
+            gm = grid_moments(model, table, model.pairs, 1)  # S(R_q - K_q) enters the scalar potential alone
             asm.add(grid, 0, gm[0], gm[1, 0], self.c_a, c_q)
             fa, fq = reflected_moments(mesh, model.pairs, kernels, near=False)
             asm.add(near, 0, fa, fq, self.c_a, c_q)
