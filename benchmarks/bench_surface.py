@@ -3,7 +3,7 @@ and frequencies, each solve in a child process of this one run, cold (a fresh ca
 
     .venv/bin/python benchmarks/bench_surface.py [--cases sawtooth-20-16@0.5 CROSS.json@0.5 ...]
         [--freqs 55:97:1] [--workers 2] [--against REV|dense] [--soils CASE@SPACING]
-        [--soil-freqs 55:97:2] [--json out.json]
+        [--soil-freqs 55:97:2] [--solve-every 2] [--json out.json]
 
 ``--against REV`` (default: the commit before the shared-terms work) solves each case with the
 code of that git revision (a detached worktree beside this checkout, on ``PYTHONPATH``), and
@@ -46,8 +46,9 @@ def child(spec: dict) -> None:
 
     name = spec["design"]
     plane = from_file(name) if name.endswith(".json") else PRESETS[name]
-    solver = SurfaceSolver(SurfaceSettings(spacing=spec["spacing"], method=spec["method"]), workers=spec["workers"],
-                           use_cache=False)
+    every = {"solve_every": spec["solve_every"]} if spec.get("solve_every", 1) > 1 else {}  # today's code only
+    solver = SurfaceSolver(SurfaceSettings(spacing=spec["spacing"], method=spec["method"], **every),
+                           workers=spec["workers"], use_cache=False)
     designs = [Design(plane, Soil(*s)) for s in spec["soils"]]
     t0 = time.perf_counter()
     if spec["together"]:
@@ -120,7 +121,8 @@ def foms(beam) -> tuple[float, float]:
 
 def split_times(beam, workers: int) -> tuple[float, float]:
     """(mean first frequency in a worker, mean of the rest) from the beam's own timings."""
-    sec = np.sort(np.asarray(beam.meta["seconds_per_frequency"]))
+    sec = np.asarray(beam.meta["seconds_per_frequency"], dtype=float)
+    sec = np.sort(sec[np.isfinite(sec)])  # a filled frequency (solve_every) was not solved: NaN
     first = sec[-min(max(workers, 1), len(sec)):]
     rest = sec[:-len(first)] if len(sec) > len(first) else first
     return float(first.mean()), float(rest.mean())
@@ -131,7 +133,7 @@ def case(text: str) -> tuple[str, float]:
     return name, float(spacing)
 
 
-def compare_case(text: str, freqs: list[float], workers: int, against: str) -> dict:
+def compare_case(text: str, freqs: list[float], workers: int, against: str, solve_every: int = 1) -> dict:
     name, spacing = case(text)
     spec = {"design": name, "spacing": spacing, "freqs": freqs, "workers": workers, "soils": [SOILS[0]],
             "together": False, "method": "fast"}
@@ -140,7 +142,7 @@ def compare_case(text: str, freqs: list[float], workers: int, against: str) -> d
             base = run_child({**spec, "method": "dense"}, ROOT, Path(c1))
         else:
             base = run_child(spec, baseline_root(against), Path(c1))
-        now = run_child(spec, ROOT, Path(c2))
+        now = run_child({**spec, "solve_every": solve_every}, ROOT, Path(c2))
     a, b = base["beams"][0], now["beams"][0]
     (fa, fa2), (fb, fb2) = foms(a), foms(b)
     rms = rms_db(a, b)
@@ -149,7 +151,8 @@ def compare_case(text: str, freqs: list[float], workers: int, against: str) -> d
            "baseline_first_rest_s": split_times(a, workers), "first_rest_s": split_times(b, workers),
            "gain_rms_db_max": float(rms.max()), "fom_baseline_mk": fa, "fom_mk": fb, "fom_2h_baseline_mk": fa2,
            "fom_2h_mk": fb2, "fom_diff_pct": 100 * (fb / fa - 1), "fom_2h_diff_pct": 100 * (fb2 / fa2 - 1),
-           "gmres_iterations": [int(x) for x in b.meta["gmres_iterations"]],
+           "gmres_iterations": [int(x) for x in b.meta["gmres_iterations"] if np.isfinite(x)],
+           "solve_every": solve_every,
            "baseline_peak_gib": base["peak_gib"], "peak_gib": now["peak_gib"]}
     print(f"| {text} | {row['unknowns']} | {row['baseline_wall_s']:.1f} | {row['wall_s']:.1f} | {row['ratio']:.2f}x | "
           f"{row['baseline_first_rest_s'][0]:.1f} / {row['baseline_first_rest_s'][1]:.1f} | "
@@ -193,18 +196,22 @@ def main() -> None:
     ap.add_argument("--against", default=BASELINE_REV, help="a git revision, or dense (today's --method dense)")
     ap.add_argument("--soils", nargs="*", default=[], metavar="CASE@SPACING")
     ap.add_argument("--soil-freqs", type=parse_freqs, default=parse_freqs("55:97:2"))
+    ap.add_argument("--solve-every", type=int, default=1,
+                    help="today's solves with SurfaceSettings(solve_every=N): every N-th frequency solved, the rest "
+                         "filled (the baseline solves them all)")
     ap.add_argument("--json", help="also write the rows here")
     args = ap.parse_args()
     rows: dict[str, list] = {"cases": [], "soils": []}
     freqs = [float(f) for f in args.freqs]
     if args.cases:
         print(f"{len(freqs)} frequencies {freqs[0]:g}-{freqs[-1]:g} MHz, {args.workers} worker process(es), sheet 5 mm "
-              f"above MRO soil, cold; baseline: {args.against}; wall times of the whole solve (s)")
+              f"above MRO soil, cold; baseline: {args.against}; wall times of the whole solve (s)"
+              + (f"; now solves every {args.solve_every} frequencies and fills the rest" if args.solve_every > 1 else ""))
         print("| case | unknowns | baseline (s) | now (s) | baseline / now | baseline first / rest per freq (s) | "
               "now first / rest (s) | gain rms diff (dB, worst freq) | FoM every LST, baseline / now (mK) | "
               "FoM 2 h bins (mK) | GMRES iterations | peak memory baseline / now (GiB) |")
         print("|---|---|---|---|---|---|---|---|---|---|---|---|")
-        rows["cases"] = [compare_case(c, freqs, args.workers, args.against) for c in args.cases]
+        rows["cases"] = [compare_case(c, freqs, args.workers, args.against, args.solve_every) for c in args.cases]
     if args.soils:
         sf = [float(f) for f in args.soil_freqs]
         print(f"\nFive soils {SOILS} of one design, {len(sf)} frequencies {sf[0]:g}-{sf[-1]:g} MHz, "

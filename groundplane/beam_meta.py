@@ -69,6 +69,10 @@ BEAM_META: dict[str, MetaParameter] = {
     "gmres_residual": _p("GMRES relative residual of the fast solve", *_NUMBER, per_frequency=True),
     "gain_calibration_kappa": _p("NEC-2's gain calibration factor (blade over PEC radiates its input power)", *_NUMBER,
                                  per_frequency=True),
+    "interpolated": _p("the frequency was not solved but filled from the solved ones (an engine's solve_every)", bool,
+                       per_frequency=True),
+    "frequency_fill": _p("how the unsolved frequencies were filled: solve_every, method, solved (count) and "
+                         "leave_out_db (the fill's error estimated from the solved frequencies alone)", dict),
     # what was done to it
     "excitation_axis_deg": _p("azimuth of the excitation axis found in the file (deg)", *_NUMBER),
     "phi_rotation_deg": _p("azimuth the beam was turned by so phi = 0 is the excitation axis (deg)", *_NUMBER),

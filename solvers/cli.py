@@ -21,7 +21,9 @@ def solve_option_groups() -> list[tuple[str, type]]:
     from .engines.plate import PlateModel
 
     return [("soil (MRO by default)", Soil), ("solver", SolveSettings), ("plate model (every engine)", PlateModel),
-            *((f"{name} model (--engine {name})", cls.settings_class) for name, cls in ENGINES.items())]
+            # by name: the registry's order is whichever engine was imported first (a test module importing
+            # the surface engine directly reordered the generated options table)
+            *((f"{name} model (--engine {name})", cls.settings_class) for name, cls in sorted(ENGINES.items()))]
 
 
 def add_solve_options(p: argparse.ArgumentParser) -> None:

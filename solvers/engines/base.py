@@ -262,6 +262,16 @@ class Solver(ABC):
 
         return BeamCache().get(self.cache_key(design, freqs_mhz))
 
+    def solve_every(self) -> int:
+        """Solve every n-th frequency and fill the rest (:mod:`.frequency_fill`): 1 unless an engine's
+        settings ask for more (only where it is validated: the surface engine's ``solve_every``)."""
+        return 1
+
+    def _to_solve(self, freqs: np.ndarray) -> np.ndarray:
+        from .frequency_fill import solved_indices
+
+        return freqs[solved_indices(len(freqs), self.solve_every())]
+
     # --------------------------------------------------------------------- solve
     def solve(self, design: Design, freqs_mhz: Iterable[float] = DEFAULT_FREQS_MHZ) -> Beam:
         """The design's beam at ``freqs_mhz`` (from the cache when it is there)."""
@@ -278,8 +288,9 @@ class Solver(ABC):
             if cache is not None and (hit := cache.get(key)) is not None:  # solved by another process meanwhile
                 return hit
             results = cache.partial(key) if cache is not None else {}
-            todo = [float(f) for f in freqs if float(f) not in results]
-            for f, (gain, extras), secs in self._run(plan, todo, design, freqs.size):
+            solved = self._to_solve(freqs)
+            todo = [float(f) for f in solved if float(f) not in results]
+            for f, (gain, extras), secs in self._run(plan, todo, design, solved.size):
                 results[f] = (gain, secs, extras)
                 if cache is not None:
                     cache.put_partial(key, f, gain, secs, **extras)
@@ -331,8 +342,9 @@ class Solver(ABC):
                 if all(h is not None for h in hits):  # solved by another process meanwhile
                     return hits  # type: ignore[return-value]
             results = [cache.partial(key) if cache is not None else {} for key in keys]
-            todo = [float(f) for f in freqs if any(float(f) not in r for r in results)]
-            for f, outs, _ in self._run(plan, todo, designs[0], freqs.size):
+            solved = self._to_solve(freqs)
+            todo = [float(f) for f in solved if any(float(f) not in r for r in results)]
+            for f, outs, _ in self._run(plan, todo, designs[0], solved.size):
                 for key, res, (gain, extras, secs) in zip(keys, results, outs):
                     res[f] = (gain, secs, extras)
                     if cache is not None:
@@ -415,7 +427,16 @@ class Solver(ABC):
             if not shared and pool is not None:
                 pool.shutdown(cancel_futures=True)
 
-    def _assemble(self, design: Design, freqs: np.ndarray, plan: Plan, results: dict, key: str) -> Beam:
+    def _assemble(self, design: Design, freqs_asked: np.ndarray, plan: Plan, results: dict, key: str) -> Beam:
+        freqs = self._to_solve(freqs_asked)
+        beam = self._assembled(design, freqs, plan, results, key)
+        if len(freqs) == len(freqs_asked):
+            return beam
+        from .frequency_fill import filled
+
+        return filled(beam, freqs_asked, self.solve_every())
+
+    def _assembled(self, design: Design, freqs: np.ndarray, plan: Plan, results: dict, key: str) -> Beam:
         gains = np.stack([results[float(f)][0] for f in freqs])
         if plan.n_phi == 91:
             gains = mirror_quadrant(gains)

@@ -169,6 +169,9 @@ class SurfaceSolver(Solver):
                 deps[dist] = "?"
         return {"engine": "groundplane-rwg", "version": str(MODEL_VERSION), **deps}
 
+    def solve_every(self) -> int:
+        return self.settings.solve_every
+
     def share_key(self, design: Design) -> str | None:
         """A fast solve over soil shares everything but the soil's values with the same design
         on other soils (the model and each frequency's direct and image terms)."""
