@@ -268,9 +268,12 @@ class Solver(ABC):
         return 1
 
     def _to_solve(self, freqs: np.ndarray) -> np.ndarray:
-        from .frequency_fill import solved_indices
+        from .frequency_fill import check_fill, solved_indices
 
-        return freqs[solved_indices(len(freqs), self.solve_every())]
+        solved = freqs[solved_indices(len(freqs), self.solve_every())]
+        if len(solved) < len(freqs):
+            check_fill(freqs, solved)
+        return solved
 
     # --------------------------------------------------------------------- solve
     def solve(self, design: Design, freqs_mhz: Iterable[float] = DEFAULT_FREQS_MHZ) -> Beam:
@@ -278,6 +281,7 @@ class Solver(ABC):
         from .cache import BeamCache
 
         freqs = _freqs(freqs_mhz)
+        solved = self._to_solve(freqs)  # a fill outside what was validated is refused before anything is built
         cache = BeamCache() if self.use_cache else None
         key = self.cache_key(design, freqs)
         if cache is not None and (hit := cache.get(key)) is not None:
@@ -288,7 +292,6 @@ class Solver(ABC):
             if cache is not None and (hit := cache.get(key)) is not None:  # solved by another process meanwhile
                 return hit
             results = cache.partial(key) if cache is not None else {}
-            solved = self._to_solve(freqs)
             todo = [float(f) for f in solved if float(f) not in results]
             for f, (gain, extras), secs in self._run(plan, todo, design, solved.size):
                 results[f] = (gain, secs, extras)
@@ -306,6 +309,7 @@ class Solver(ABC):
         from .cache import BeamCache
 
         freqs = _freqs(freqs_mhz)
+        self._to_solve(freqs)  # refused here, not after the first design's build
         cache = BeamCache() if self.use_cache else None
         keys = [self.cache_key(d, freqs) for d in designs]
         beams: dict[str, Beam] = {}

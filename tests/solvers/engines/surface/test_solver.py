@@ -281,3 +281,5 @@ def test_solve_every_2_solves_half_and_fills_the_rest_close_to_solving_them(tmp_
     assert again is not None and np.array_equal(again.gain, beam.gain) and again.meta["interpolated"][1]
     with pytest.raises(SettingsError, match="solve_every must be 1 or 2"):
         SurfaceSettings(solve_every=3)
+    with pytest.raises(SettingsError, match="3 MHz apart moved a FoM"):  # every 3 MHz, every other one: 6 apart
+        fast.solve(design, np.arange(55.0, 80.0, 3.0))
