@@ -281,5 +281,9 @@ def test_solve_every_2_solves_half_and_fills_the_rest_close_to_solving_them(tmp_
     assert again is not None and np.array_equal(again.gain, beam.gain) and again.meta["interpolated"][1]
     with pytest.raises(SettingsError, match="solve_every must be 1 or 2"):
         SurfaceSettings(solve_every=3)
+    # the soils of a scenario set, solved together in one job per frequency, are filled alike
+    both = fast.solve_many([Design(Square(6.0), Soil(5.0, 0.05)), Design(Square(6.0), Soil(2.5, 0.005))], freqs)
+    assert [b.meta["interpolated"] for b in both] == [beam.meta["interpolated"]] * 2
+    assert all(b.meta["frequency_fill"]["solved"] == 5 for b in both) and not np.allclose(both[0].gain, both[1].gain)
     with pytest.raises(SettingsError, match="3 MHz apart moved a FoM"):  # every 3 MHz, every other one: 6 apart
         fast.solve(design, np.arange(55.0, 80.0, 3.0))
