@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -59,6 +60,14 @@ class SurfaceSettings(PlateModel):
                                 f"a FoM by 2.7 %), got {self.solve_every}")
         if self.method not in ("fast", "dense"):
             raise SettingsError(f"method must be 'fast' or 'dense', got {self.method!r}")
+
+    def as_dict(self) -> dict[str, Any]:
+        """Every field but ``solve_every`` at its default (1): the beams solved at every frequency
+        keep the cache keys and search identities they had before the option existed."""
+        fields = super().as_dict()
+        if fields["solve_every"] == 1:
+            del fields["solve_every"]
+        return fields
 
     def label(self) -> str:
         """The model in words, for tables."""

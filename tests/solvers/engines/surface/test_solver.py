@@ -287,3 +287,13 @@ def test_solve_every_2_solves_half_and_fills_the_rest_close_to_solving_them(tmp_
     assert all(b.meta["frequency_fill"]["solved"] == 5 for b in both) and not np.allclose(both[0].gain, both[1].gain)
     with pytest.raises(SettingsError, match="3 MHz apart moved a FoM"):  # every 3 MHz, every other one: 6 apart
         fast.solve(design, np.arange(55.0, 80.0, 3.0))
+
+
+def test_solve_every_leaves_the_cache_key_of_every_frequency_solves_as_it_was():
+    """Adding the option must not orphan the cached beams (and search histories) of solves at every
+    frequency: the key is the one computed before solve_every existed (commit a2e288b)."""
+    design, freqs = Design(PRESETS["square-10"], Soil(3.5, 0.02)), [55.0, 75.0, 97.0]
+    assert make_solver("surface").cache_key(design, freqs) == "617c6d96b4efa2f301196e10c5805056"
+    every2 = make_solver("surface", SurfaceSettings(solve_every=2))
+    assert every2.cache_key(design, freqs) != "617c6d96b4efa2f301196e10c5805056"
+    assert "solve_every" not in SurfaceSettings().as_dict() and SurfaceSettings(solve_every=2).as_dict()["solve_every"] == 2
