@@ -21,7 +21,7 @@ from .errors import ConfigError, SettingsError, UserInputError
 
 def option(default: Any, help: str, *, flag: str | None = None, parse: Callable[[str], Any] | None = None,
            choices: tuple[str, ...] | None = None, switch: Callable[[], Any] | None = None,
-           metavar: str | tuple[str, ...] | None = None) -> Any:
+           metavar: str | tuple[str, ...] | None = None, keyed_at_default: bool = True) -> Any:
     """Declare a settings field that users may set.
 
     Parameters
@@ -41,8 +41,12 @@ def option(default: Any, help: str, *, flag: str | None = None, parse: Callable[
         For an on/off option whose "on" is an object: ``--flag`` sets the field to ``switch()``.
     metavar : str or tuple of str, optional
         Placeholder(s) shown in ``--help``.
+    keyed_at_default : bool
+        False for an option added after results were cached: at its default it is left out of the
+        settings' identity (``PlateModel.as_dict``), so the keys of those results stay as they were.
     """
-    meta = {"help": help, "flag": flag, "parse": parse, "choices": choices, "switch": switch, "metavar": metavar}
+    meta = {"help": help, "flag": flag, "parse": parse, "choices": choices, "switch": switch, "metavar": metavar,
+            "keyed_at_default": keyed_at_default}
     return field(default=default, metadata={"option": meta})
 
 

@@ -4,7 +4,7 @@ engine's settings extend with its own."""
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 from typing import Any
 
 from groundplane.errors import SettingsError
@@ -43,5 +43,8 @@ class PlateModel:
                                 "96 cm panel at most; 1000 x 1000 ran NEC to 4 GB)")
 
     def as_dict(self) -> dict[str, Any]:
-        """Every field, tuples as lists (JSON's form): what a cache key and a report's model are."""
-        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+        """Every field, tuples as lists (JSON's form): what a cache key and a report's model are. An
+        option declared ``keyed_at_default=False`` is left out at its default (older keys stay valid)."""
+        quiet = {f.name for f in fields(self) if not f.metadata.get("option", {}).get("keyed_at_default", True)
+                 and getattr(self, f.name) == f.default}
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items() if k not in quiet}

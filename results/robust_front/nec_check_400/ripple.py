@@ -14,14 +14,16 @@ from pathlib import Path
 
 import numpy as np
 
+from groundplane.beam import Beam
+
 ANGLES = (0, 10, 20, 30, 40, 50, 60, 70, 80)
 
 
 def ripple(path: str) -> tuple[float, np.ndarray, np.ndarray]:
     """(rms over the sky above 10 deg elevation, rms over azimuth per zenith angle [ANGLES], the
     zenith's residual per frequency) of the 5-term fit's residual, dB."""
-    z = np.load(path, allow_pickle=True)
-    f, th, gain = z["freqs_mhz"], z["theta_deg"], z["gain"]
+    beam = Beam.load(path)
+    f, th, gain = beam.freqs_mhz, beam.theta_deg, beam.gain
     keep = th <= 80
     gdb = 10 * np.log10(np.maximum(gain[:, keep, :], 1e-12))
     flat = gdb.reshape(len(f), -1)
@@ -57,7 +59,7 @@ def main() -> None:
     print("\nThe zenith's residual per frequency (mdB, 55-97 MHz), and the period (MHz) of its strongest sinusoid "
           "(3-30 MHz searched):\n")
     for p in paths:
-        f = np.load(p, allow_pickle=True)["freqs_mhz"]
+        f = Beam.load(p).freqs_mhz
         zenith = ripple(p)[2] * 1e3
         print(f"- {Path(p).stem}: largest |residual| {np.abs(zenith).max():.0f} mdB, period "
               f"{strongest_period(f, zenith):.1f} MHz: " + " ".join(str(int(round(v))) for v in zenith))

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -38,7 +37,8 @@ class SurfaceSettings(PlateModel):
     solve_every: int = option(1, "surface engine: solve every n-th frequency (and the last) and fill the rest by a "
                               "cubic spline of ln G per direction: 2 halves the solves (validated: FoM within 0.2 %, "
                               "gain within 0.002 dB, docs/speed.md; the beam's meta frequency_fill holds a leave-out "
-                              "estimate; refused where the solved ones would be over 2 MHz apart); 1 solves every frequency")
+                              "estimate; refused where the solved ones would be over 2 MHz apart); 1 solves every frequency",
+                              keyed_at_default=False)  # added after the cache filled: 1 keeps the old keys
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -60,14 +60,6 @@ class SurfaceSettings(PlateModel):
                                 f"a FoM by 2.7 %), got {self.solve_every}")
         if self.method not in ("fast", "dense"):
             raise SettingsError(f"method must be 'fast' or 'dense', got {self.method!r}")
-
-    def as_dict(self) -> dict[str, Any]:
-        """Every field but ``solve_every`` at its default (1): the beams solved at every frequency
-        keep the cache keys and search identities they had before the option existed."""
-        fields = super().as_dict()
-        if fields["solve_every"] == 1:
-            del fields["solve_every"]
-        return fields
 
     def label(self) -> str:
         """The model in words, for tables."""
