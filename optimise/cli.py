@@ -415,10 +415,8 @@ def _run_score(args: argparse.Namespace) -> int:
           + ("-" if loss is None else f"{100 * loss:.3f} %")
           + ("" if row.get("loss_spread") is None else f", spread across them {100 * row['loss_spread']:.3f} %"))
     print("meets the constraints" if row["feasible"] else "breaks: " + "; ".join(row["violations"]))
-    reference = row.get("nominal_fom_mk") or next((m["lst_averaged_fom_mk"] for m in row["members"]
-                                                  if m["member"].startswith("MRO")), None)
-    if reference:
-        print("\n".join(sensitivity(row, reference).verdicts()))
+    if (sens := sensitivity(row)) is not None:
+        print("\n".join(sens.verdicts()))
     if row.get("skipped_members"):
         print(f"not applicable to this design: {', '.join(row['skipped_members'])}")
     if out is not None:

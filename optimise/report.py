@@ -94,12 +94,14 @@ def write_report(rows: list[dict[str, Any]], out_dir: str | Path, title: str = "
     md += ["| " + " | ".join(md_cell(x) for x in c) + " |" for c in cells]
     with_members = [r for r in ok if r.get("members")]
     if with_members:
-        from .scenarios import member_table
+        from .scenarios import member_table, sensitivity
 
         md += ["", "## Every scenario member", ""]
         for r in with_members:
             md += [f"**{r['name']}** ({r['scenario_set']}, aggregate {r['aggregate']}; figures show its worst member, "
                    f"{r.get('curves_of')}):", "", *member_table(r), ""]
+            if (sens := sensitivity(r)) is not None and sens.rows:
+                md += [*sens.table(), ""]
             if r.get("skipped_members"):
                 md += [f"Not applicable to this design: {', '.join(r['skipped_members'])}.", ""]
     if bad:
@@ -256,7 +258,7 @@ def _residuals_figure(ok: list[dict[str, Any]], path: Path) -> Path:
     fig, axes = pyplot().subplots(2, 2, figsize=(10, 6), sharex=True)
     for ax, h in zip(axes.ravel(), RESIDUAL_LSTS_H):
         for r in ok:
-            res = r.get("residuals_mk", {}).get(f"{h:g}")
+            res = (r.get("residuals_mk") or {}).get(f"{h:g}")
             if res:
                 ax.plot(r["fit_freqs_mhz"], res, label=r["name"])
         ax.set_title(f"LST {h:g} h: residuals after LinLog", fontsize=9)

@@ -583,6 +583,7 @@ class Sensitivity:
     member's, and whether that makes the design fragile (more than ``FRAGILE``)."""
 
     nominal_mk: float
+    nominal_name: str = "the nominal member"
     rows: list[dict[str, Any]] = field(default_factory=list)
 
     def verdicts(self) -> list[str]:
@@ -591,20 +592,38 @@ class Sensitivity:
         for r in self.rows:
             head = (f"- {r['axis']}: the largest move is {r['member']} ({r['fom_mk']:.1f} mK, "
                     f"{100 * r['change']:+.1f} % from {self.nominal_mk:.1f})")
-            out.append(head + (f": **fragile** (more than {100 * FRAGILE:.0f} %)." if abs(r["change"]) > FRAGILE
+            out.append(head + (f": **fragile** (more than {100 * FRAGILE:.0f} %)." if r["fragile"]
                                else f": within {100 * FRAGILE:.0f} %, not fragile on this axis."))
         return out
 
+    def table(self) -> list[str]:
+        """Markdown: one row per axis, its largest move and the computed verdict."""
+        lines = [f"Sensitivity to each axis, against {self.nominal_name} ({self.nominal_mk:.1f} mK); fragile where one "
+                 f"member moves the FoM by more than {100 * FRAGILE:.0f} %:", "",
+                 "| axis | members | largest move (member) | its FoM (mK) | change | verdict |", "|---|---|---|---|---|---|"]
+        lines += [f"| {r['axis']} | {r['members']} | {r['member']} | {r['fom_mk']:.1f} | {100 * r['change']:+.1f} % | "
+                  f"{'**fragile**' if r['fragile'] else 'not fragile'} |" for r in self.rows]
+        return lines
 
-def sensitivity(row: dict[str, Any], nominal_mk: float) -> Sensitivity:
-    """:class:`Sensitivity` of a scenario row against the nominal FoM ``nominal_mk``."""
-    out = Sensitivity(nominal_mk)
+
+def sensitivity(row: dict[str, Any], nominal_mk: float | None = None) -> Sensitivity | None:
+    """:class:`Sensitivity` of a scenario row against ``nominal_mk``, by default the row's nominal
+    member, else its MRO member (the default soil); None when it has neither."""
+    name = "the nominal member"
+    if nominal_mk is None:
+        mro = next((m for m in row.get("members", []) if m["member"].startswith("MRO")), None)
+        nominal_mk = row.get("nominal_fom_mk") or (mro["lst_averaged_fom_mk"] if mro else None)
+        name = "the nominal member" if row.get("nominal_fom_mk") else "the MRO soil member"
+    if not nominal_mk:
+        return None
+    out = Sensitivity(nominal_mk, name)
     for axis in ("soil", "model", "as built"):
         ms = [m for m in row["members"] if m["axis"] == axis]
         if ms:
             worst = max(ms, key=lambda m: abs(m["lst_averaged_fom_mk"] / nominal_mk - 1))
+            change = worst["lst_averaged_fom_mk"] / nominal_mk - 1
             out.rows.append({"axis": axis, "member": worst["member"], "fom_mk": worst["lst_averaged_fom_mk"],
-                             "change": worst["lst_averaged_fom_mk"] / nominal_mk - 1, "members": len(ms)})
+                             "change": change, "fragile": abs(change) > FRAGILE, "members": len(ms)})
     return out
 
 

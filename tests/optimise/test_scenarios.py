@@ -187,6 +187,32 @@ def test_teeth_xy_holds_the_paper_planes_crosses_and_stars():
         TeethXY(10.0, 1, 1.0, 2.0, 8.0, 0.0, 2.0, 8.0, 0.0, 4.0, 8.0, 0.0)
 
 
+def test_sensitivity_verdicts_are_computed_per_axis_and_written_into_the_report(tmp_path):
+    """Each axis's largest move from the MRO member, fragile beyond 25 % either way, in the score and
+    sweep reports' table (both outcomes reachable: the wide feed moves it 30 %, the dry soil 10 %)."""
+    from optimise.report import write_report
+    from optimise.scenarios import FRAGILE, sensitivity
+
+    scen = ScenarioSet("mix", (Member("MRO (eps_r 3.5, sigma 0.02)", (("eps_r", 3.5), ("sigma", 0.02))),
+                               Member("dry", (("eps_r", 2.5), ("sigma", 0.005))),
+                               Member("wide feed", (("feed_width", 1.252),))), "worst")
+    fn = _member_fn(lambda p, s: 70.0 if s.model.feed_width > 1 else (110.0 if s.soil.eps_r < 3 else 100.0),
+                    lambda p, s: 0.003)
+    row = evaluate_scenarios(Candidate("sq", plane=Square(10.0)), EvalSettings(), scen, Constraints(0.005),
+                             member_fn=fn)
+    sens = sensitivity(row)
+    assert sens.nominal_mk == pytest.approx(100.0) and sens.nominal_name == "the MRO soil member"
+    by_axis = {r["axis"]: r for r in sens.rows}
+    assert by_axis["soil"]["member"] == "dry" and by_axis["soil"]["change"] == pytest.approx(0.10)
+    assert by_axis["model"]["change"] == pytest.approx(-0.30) and abs(by_axis["model"]["change"]) > FRAGILE
+    assert [r["fragile"] for r in sens.rows] == [False, True]
+    assert "**fragile**" in sens.verdicts()[1] and "not fragile" in sens.verdicts()[0]
+    assert sensitivity({**row, "members": [m for m in row["members"] if m["axis"] != "soil"]}) is None  # no MRO
+    text = write_report([row], tmp_path)["md"].read_text()
+    assert "| model | 1 | wide feed | 70.0 | -30.0 % | **fragile** |" in text
+    assert "| soil | 2 | dry | 110.0 | +10.0 % | not fragile |" in text
+
+
 def test_score_command_solves_a_plate_on_every_soil(tmp_path, monkeypatch, capsys):
     """The real thing, small: a 4 m square at a 1.5 m mesh on the soil set, the soils solved together."""
     from groundplane.cli import main
@@ -200,7 +226,8 @@ def test_score_command_solves_a_plate_on_every_soil(tmp_path, monkeypatch, capsy
     losses = {m["member"]: m["max_ground_loss"] for m in row["members"]}
     assert all(0.001 < v < 0.3 for v in losses.values())
     assert row["max_loss"] == max(losses.values()) and row["feasible"] is False  # a 4 m plate loses more than 0.5 %
-    assert (tmp_path / "out" / "report.md").read_text().count("| eps_r") >= 4
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert report.count("| eps_r") >= 4 and "against the MRO soil member" in report
     assert main([*argv, "--max-loss", "none", "--scenarios", "nominal"]) == 0
     assert "meets the constraints" in capsys.readouterr().out
     assert main([*argv, "--scenarios", "nope"]) == 2
