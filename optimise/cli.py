@@ -304,6 +304,8 @@ def _run_optimise(args: argparse.Namespace) -> int:
 
 def stopping_sentence(stop: dict) -> str:
     """The stopping rule's reading, computed from the search's rows."""
+    from .search import best_plane_clause
+
     if not stop or not stop.get("solves"):
         return ""
     if not stop.get("best_at"):
@@ -315,7 +317,7 @@ def stopping_sentence(stop: dict) -> str:
                                                   "the last half."))
     return (f"The best so far was found at solve {stop['best_at']} of {stop['solves']}{within}: "
             + ("flat over the last half." if stop["flat"] else "**not** flat over the last half (the search had not "
-               "converged; --max-budget lets it go on)."))
+               "converged; --max-budget lets it go on).") + best_plane_clause(stop))
 
 
 def flat_within(stop: dict) -> str:

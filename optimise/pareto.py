@@ -24,12 +24,12 @@ from groundplane.shapes import PRESETS, to_dict
 from .evaluate import Candidate, EvalSettings, evaluate, pec_floor_mk
 from .provenance import header
 from .report import cell
-from .search import OptimiseResult, best_plane, best_so_far, family, optimise, solved_rows
+from .search import OptimiseResult, best_plane, best_plane_clause, best_so_far, family, optimise, solved_rows
 
 LADDER_DESIGNS = 24  # designs scored at both levels to measure how well the cheap one ranks (>= 20)
 PARETO_COLUMNS = ("budget_m2", "area_m2", "fom_mk", "worst_fom_mk", "mean_fom_mk", "max_loss", "loss_spread",
                   "feasible", "violations", "mesh_m", "design", "evaluations", "best_at", "flat", "flat_tolerance",
-                  "search_scatter", "search_fom_mk",
+                  "search_scatter", "best_plane_solves", "best_plane_gap", "search_fom_mk",
                   "search_mesh_m", "search_max_loss", "answer_fom_mk", "answer_max_loss", "answer_mesh_m")
 PRESET_COLUMNS = ("preset", "area_m2", "fom_mk", "worst_fom_mk", "mean_fom_mk", "max_loss", "loss_spread", "feasible",
                   "violations")
@@ -89,7 +89,8 @@ def _answer(shape: str, budget_m2: float, res: OptimiseResult, confirm: EvalSett
     stop = res.stopping or {}
     solves = stop.get("solves", len(res.solved()))
     head = {"budget_m2": budget_m2, "evaluations": solves, "best_at": stop.get("best_at"), "flat": stop.get("flat"),
-            "flat_tolerance": stop.get("tolerance"), "search_scatter": stop.get("scatter")}
+            "flat_tolerance": stop.get("tolerance"), "search_scatter": stop.get("scatter"),
+            "best_plane_solves": stop.get("best_plane_solves"), "best_plane_gap": stop.get("best_plane_gap")}
     if best is None:
         return {**head, "area_m2": None, "fom_mk": None, "mesh_m": confirm.spacing, "design": None}
     plane = best_plane(shape, best)
@@ -250,7 +251,7 @@ def _cell_value(column: str, text: str | None) -> Any:
     if text in ("True", "False"):
         return text == "True"
     try:
-        return int(text) if column in ("evaluations", "best_at") else float(text)
+        return int(text) if column in ("evaluations", "best_at", "best_plane_solves") else float(text)
     except ValueError:
         return text
 
@@ -296,7 +297,8 @@ def verdicts(front: Front, target: float = 0.25, reference: str | None = None) -
                    + (f"{gain:.0%} lower, " + ("at least" if gain >= target else "short of") + f" {target:.0%}"
                       if gain > 0 else f"{-gain:.0%} higher: the search did not beat it")
                    + f"; {r['fom_mk'] / floor:.2f} x the blade over infinite PEC ({floor:.1f} mK)"
-                   + (", below it: in this model the blade over PEC is no floor." if r["fom_mk"] < floor else "."))
+                   + (", below it: in this model the blade over PEC is no floor." if r["fom_mk"] < floor else ".")
+                   + best_plane_clause({**r, "tolerance": r.get("flat_tolerance")}))
     return out
 
 

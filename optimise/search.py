@@ -482,6 +482,35 @@ def search_scatter(solved: list[dict[str, Any]], span: np.ndarray) -> tuple[floa
     return float(np.median(np.abs(f[i] - f[j]) / np.minimum(f[i], f[j]))), int(len(i))
 
 
+def remeshings_of_best(solved: list[dict[str, Any]], span: np.ndarray) -> tuple[int, float | None]:
+    """How often the search solved the final best's plane (feasible designs of its integer whose every
+    parameter lies within SCATTER_STEP x ``span`` of it, the best included) and how far their median
+    FoM lies above the best (relative; None below two solves): the remeshing luck a best-so-far
+    that keeps sampling one plane picks up. A fact for the report; the stopping rule does not use it."""
+    ok = [r for r in solved if r["status"] == "ok" and r.get("feasible", True) and r.get("fom_mk")]
+    if not ok:
+        return 0, None
+    span = np.where(np.asarray(span, float) > 0, np.asarray(span, float), 1.0)
+    best = min(ok, key=lambda r: r["fom_mk"])
+    xb = np.asarray(best["x"], float) / span
+    f = [r["fom_mk"] for r in ok if r.get("integer") == best.get("integer")
+         and np.abs(np.asarray(r["x"], float) / span - xb).max() < SCATTER_STEP]
+    return len(f), (float(np.median(f)) / best["fom_mk"] - 1 if len(f) >= 2 else None)
+
+
+def best_plane_clause(stop: dict) -> str:
+    """How often the search solved the best's own plane and how far those solves' median lies above
+    the best (:func:`remeshings_of_best`), as a sentence; empty below two solves."""
+    n, gap = stop.get("best_plane_solves") or 0, stop.get("best_plane_gap")
+    if n < 2 or gap is None:
+        return ""
+    return (f" The best's own plane (every parameter within {100 * SCATTER_STEP:g} % of its range) was solved {n} "
+            f"times; their median "
+            f"FoM lies {100 * gap:.1f} % above the best" + (", more than the tolerance: part of the best is the "
+            "search level's remeshing, not the design." if gap > (stop.get("tolerance") or 0) else
+            ", within the tolerance."))
+
+
 def flat_over_last_half(rows: list[dict[str, Any]], tol: float = FLAT_TOLERANCE,
                         span: np.ndarray | None = None) -> dict[str, Any]:
     """The stopping rule, from a search's rows in order: the solves, the solve from which the best
@@ -499,6 +528,8 @@ def flat_over_last_half(rows: list[dict[str, Any]], tol: float = FLAT_TOLERANCE,
     if not curve or not math.isfinite(curve[-1]):
         return {**head, "best_at": 0, "flat": False, "measure": measure}
     at = next(i for i, v in enumerate(curve, 1) if v <= curve[-1] * (1 + tol))
+    if measure == "fom" and span is not None:
+        head["best_plane_solves"], head["best_plane_gap"] = remeshings_of_best(solved, span)
     return {**head, "best_at": at, "flat": at <= len(solved) / 2, "measure": measure}
 
 

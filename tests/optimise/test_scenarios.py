@@ -286,3 +286,25 @@ def test_the_flat_tolerance_is_the_search_levels_own_scatter_where_that_is_large
     assert stop["best_at"] < len(rows)
     few = flat_over_last_half(far + near[:5] + late, span=span)  # 15 pairs (six near designs): not enough
     assert few["scatter"] is None and few["tolerance"] == pytest.approx(0.01) and few["scatter_pairs"] == 15
+
+
+def test_the_report_says_how_often_the_best_plane_was_solved_and_how_far_its_median_lies_above_the_best():
+    """A local search that keeps sampling one plane keeps finding luckier remeshings of it: the stop
+    carries how often the best's plane was solved and its median's gap above the best (facts beside
+    the rule, which they do not change), and the sentence says whether that gap exceeds the tolerance."""
+    from optimise.cli import stopping_sentence
+
+    span = np.array([10.0, 10.0])
+    far = [{"status": "ok", "fom_mk": 100.0 - i, "x": [float(i), 0.0], "integer": None} for i in range(10)]
+    same = [{"status": "ok", "fom_mk": f, "x": [5.0 + 1e-4 * i, 5.0], "integer": None}
+            for i, f in enumerate([90.0, 95.0, 99.0, 93.0, 97.0])]  # one plane, median 95
+    other = [{"status": "ok", "fom_mk": 80.0, "x": [5.0, 9.0], "integer": None, "feasible": False}]  # never counts
+    stop = flat_over_last_half(far + same + other, span=span)
+    plain = flat_over_last_half(far + same + other)
+    assert stop["best_plane_solves"] == 5 and stop["best_plane_gap"] == pytest.approx(95.0 / 90.0 - 1)
+    assert {k: stop[k] for k in ("best_at", "flat")} == {k: plain[k] for k in ("best_at", "flat")}
+    text = stopping_sentence(stop)
+    assert "solved 5 times" in text and "5.6 % above the best" in text and "more than the tolerance" in text
+    lone = flat_over_last_half(far, span=span)
+    assert lone["best_plane_solves"] == 1 and lone["best_plane_gap"] is None
+    assert "own plane" not in stopping_sentence(lone)
