@@ -2,7 +2,8 @@
 plane was solved and its median's gap above the best (optimise.search.remeshings_of_best), how far
 the best design moved over the second half (largest parameter change, m), and, as a what-if only,
 the verdict had the tolerance been that gap. Rows a later check refuses (too fine for the 0.7 m
-search mesh) are dropped as the search's resume drops them. Run from the checkout: python results/robust_front/convergence_facts.py"""
+search mesh) are dropped as the search's resume drops them; the search's other checks are not
+repeated, so a count can exceed the search's own (the 400 m^2 history at 2026-12-05 15:15: 281 here, 266 in its log). Run from the checkout: python results/robust_front/convergence_facts.py"""
 import json
 import sys
 from pathlib import Path
