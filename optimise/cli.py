@@ -116,6 +116,10 @@ def _setup_optimise(p: argparse.ArgumentParser):
                         "of the best few; local: the algorithm from one start per integer value")
     p.add_argument("--algorithm", default="LN_COBYLA", help="nlopt algorithm taking constraints (default LN_COBYLA)")
     p.add_argument("--budget", type=int, default=30, help="solves per search, across every integer value (default 30)")
+    p.add_argument("--explore", type=int, metavar="N",
+                   help="solves of the global stage: the seeds and presets first, then a space-filling sample "
+                        "(default 60 %% of --budget); as many as --seed's designs: refine another search's best "
+                        "designs (e.g. at a finer --mesh) without exploring again")
     p.add_argument("--executor", choices=["local", "dask"], default="local",
                    help="dask: solve the exploration's designs in parallel on a cluster first")
     p.add_argument("--scheduler", help="Dask scheduler address (default: a local cluster)")
@@ -188,7 +192,7 @@ def _run_pareto(args: argparse.Namespace, seeds: dict | None = None) -> int:
     front = pareto_front(args.shape, args.pareto, settings, confirm, out, budget=args.budget, answer_mesh=answer or None,
                          ladder=args.ladder, confirm_top=args.confirm_top, executor=args.executor,
                          scheduler=args.scheduler, scenarios=scenarios, constraints=constraints,
-                         max_budget=args.max_budget, seeds=seeds)
+                         max_budget=args.max_budget, seeds=seeds, explore=args.explore)
     from .scenarios import describe_set
 
     path = write_report(front, out, invocation(), settings, confirm, objective=describe_set(scenarios, constraints),
@@ -205,7 +209,7 @@ def _search_options(args: argparse.Namespace, seeds: dict | None = None) -> dict
     """The search's own flags, for every kind of search (one place, so none is silently dropped)."""
     return {"algorithm": args.algorithm, "strategy": args.strategy, "confirm_top": args.confirm_top,
             "integer_values": tuple(args.integers) if args.integers else None, "executor": args.executor,
-            "scheduler": args.scheduler, "seeds": seeds or None}
+            "scheduler": args.scheduler, "seeds": seeds or None, "explore": args.explore}
 
 
 def _seeds(args: argparse.Namespace) -> dict:

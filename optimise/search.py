@@ -332,6 +332,7 @@ def optimise(
     scenarios: "ScenarioSet | None" = None,
     constraints: "Constraints | None" = None,
     max_budget: int | None = None,
+    explore: int | None = None,
 ) -> OptimiseResult:
     """Minimise the LST-averaged FoM of ``shape`` with metal area <= ``max_area`` (m^2), in at
     most ``budget`` solves (designs that are invalid or over the budget cost none).
@@ -352,23 +353,26 @@ def optimise(
     ``budget`` solves the search goes on, refining from its best, until the best so far was found
     in the first half of the solves (``stopping``) or ``max_budget`` is spent (default ``budget``: no
     more; ``stopping`` says either way whether the best so far is flat over the last half).
+    ``explore``: the solves of the global stage (default EXPLORE_FRACTION of ``budget``): as many as
+    the seeds to refine another search's best designs at a finer level without exploring again.
     Raises UserInputError for a family, budget or algorithm that cannot work."""
     from .scenarios import NO_CONSTRAINTS
 
     fam = family(shape)
     ints = integer_choices(fam, integer_values)
     _check_request(max_area, algorithm, budget, strategy, fam, ints, seeds)
+    explore = _check_explore(explore, budget, strategy)
     settings.check_scorable()
     constraints = constraints or NO_CONSTRAINTS
     out = _open_search(out_dir, shape, max_area, settings, strategy, executor,
-                       _objective(objective, scenarios, constraints), scenarios)
+                       _objective(objective, scenarios, constraints), scenarios, explore)
     ev = _Evaluator(fam, shape, max_area, settings, History(out / "history.jsonl"),
                     evaluate_fn or _default_evaluate(scenarios, constraints, progress), progress, budget=budget,
                     constraints=constraints)
     ev.backfill_outlines()
     ev.refuse_again()
     if strategy == "global":
-        _global_search(fam, ints, ev, algorithm, out, executor, scheduler, seeds)
+        _global_search(fam, ints, ev, algorithm, out, executor, scheduler, seeds, explore)
     else:
         _local_search(fam, ints, ev, algorithm)
     stopping = _until_flat(fam, ev, algorithm, max(budget, max_budget or budget))
@@ -378,15 +382,28 @@ def optimise(
                           list(ev.counted))
 
 
+def _check_explore(explore: int | None, budget: int, strategy: str) -> int | None:
+    """The global stage's solves as asked (None: the default share of the budget), refused when
+    no search could spend them as asked."""
+    if explore is None:
+        return None
+    if strategy != "global":
+        raise UserInputError("--explore needs --strategy global (the local search does not explore)")
+    if not 1 <= explore <= budget:
+        raise UserInputError(f"--explore {explore}: the global stage's solves must lie between 1 and --budget ({budget})")
+    return explore
+
+
 def _open_search(out_dir: str | Path, shape: str, max_area: float, settings: EvalSettings, strategy: str,
-                 executor: str, objective: dict[str, Any] | None, scenarios) -> Path:
+                 executor: str, objective: dict[str, Any] | None, scenarios, explore: int | None = None) -> Path:
     """The search's folder, refused when it holds another search (a resume must ask the same)."""
     if scenarios is not None and scenarios.name != "nominal" and executor != "local":
         raise UserInputError("--executor dask presolves one beam per design; a search over a scenario set runs "
                              "locally (its members of one model are solved together)")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    extra = {**({"strategy": strategy} if strategy != "local" else {}), **({"objective": objective} if objective else {})}
+    extra = {**({"strategy": strategy} if strategy != "local" else {}), **({"objective": objective} if objective else {}),
+             **({"explore": explore} if explore is not None else {})}  # another share takes another path
     same_search(out, {"shape": shape, "max_area": max_area, "settings": settings.identity(), **extra,
                       "model": engine_model(settings)})
     return out
@@ -668,9 +685,11 @@ def _local_search(fam: Family, ints: tuple, ev: "_Evaluator", algorithm: str) ->
 
 
 def _global_search(fam: Family, ints: tuple, ev: "_Evaluator", algorithm: str, out: Path, executor: str,
-                   scheduler: str | None, extra: dict[str, GroundPlane] | None = None) -> None:
-    """Seeds and a space-filling sample, then local refinement from the best few."""
-    explore = max(1, math.ceil(EXPLORE_FRACTION * ev.budget))
+                   scheduler: str | None, extra: dict[str, GroundPlane] | None = None,
+                   explore: int | None = None) -> None:
+    """Seeds and a space-filling sample (``explore`` solves, default EXPLORE_FRACTION of the
+    budget), then local refinement from the best few."""
+    explore = explore or max(1, math.ceil(EXPLORE_FRACTION * ev.budget))
     seeds = seeds_for(fam, ev.max_area, ints, extra)[:explore]
     sample = space_filling(fam, ints, ev.max_area, 10 * explore)  # spares for designs the mesh cannot hold
     designs = [(x, n, plane, name) for name, plane, x, n in seeds] + [(x, n, None, None) for x, n in sample]

@@ -280,6 +280,33 @@ def test_the_search_itself_refuses_a_seed_it_could_not_use(tmp_path):
                  seeds={"big": Square(10.0)}, strategy="local")
 
 
+
+def test_explore_spends_the_global_stage_on_the_seeds_alone_and_is_part_of_the_search(tmp_path):
+    """--explore N: the global stage solves N designs, the seeds first (no space-filling sample when
+    the seeds fill it), then refines from them; a resume asking another N is refused, and an N the
+    search cannot spend is refused before any solve."""
+    from groundplane.errors import UserInputError
+    from groundplane.shapes import Square
+
+    ev, calls = _fake_eval(lambda p: 100.0 + (p.side - 12.0) ** 2)
+    seeds = {"eleven": Square(11.0), "thirteen": Square(13.0)}
+    res = optimise("square", 400.0, EvalSettings(), tmp_path, budget=20, evaluate_fn=ev, progress=False,
+                   seeds=seeds, explore=2)
+    phases = [r["phase"] for r in res.history if r["status"] == "ok"]
+    assert phases[:2] == ["seed", "seed"] and "explore" not in phases  # the two seeds, no Sobol sample
+    assert phases[2].startswith("refine") and len(calls) > 2
+    assert res.best["fom_mk"] < 101.0  # the refinement from the seeds found the optimum (side 12)
+    with pytest.raises(UserInputError, match="another search|differs|explore"):  # another share: another path
+        optimise("square", 400.0, EvalSettings(), tmp_path, budget=20, evaluate_fn=ev, progress=False,
+                 seeds=seeds, explore=3)
+    for bad in (0, 11):
+        with pytest.raises(UserInputError, match=f"--explore {bad}: the global stage's solves must lie between 1"):
+            optimise("square", 400.0, EvalSettings(), tmp_path / "bad", budget=10, evaluate_fn=ev, progress=False,
+                     explore=bad)
+    default = optimise("square", 400.0, EvalSettings(), tmp_path / "default", budget=10, evaluate_fn=ev,
+                       progress=False, seeds=seeds)
+    assert "explore" in [r["phase"] for r in default.history]  # 60 % of 10: the seeds and a Sobol sample
+
 def _teeth_xy_x(fam, **p):
     base = dict(side=16.0, chamfer=0.0, base_x=3.0, height_x=4.0, tip_x=0.0, base_y=3.0, height_y=0.0, tip_y=0.0,
                 base_d=0.0, height_d=0.0, tip_d=0.0)
