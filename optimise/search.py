@@ -337,11 +337,11 @@ def optimise(
     """Minimise the LST-averaged FoM of ``shape`` with metal area <= ``max_area`` (m^2), in at
     most ``budget`` solves (designs that are invalid or over the budget cost none).
 
-    ``strategy`` "global": the family's presets that fit the budget (the paper's designs are
-    always scored) and a scrambled-Sobol space-filling sample of the family (integers
-    included) take EXPLORE_FRACTION of the solves; ``algorithm`` then refines the best
-    REFINE_STARTS distinct designs with the rest. "local": ``algorithm`` from the family's
-    start point, one run per integer value, the solves shared between them. With
+    ``strategy`` "global": the family's presets that fit the budget (the paper's designs are always
+    scored) and a scrambled-Sobol sample of the family take ``explore`` solves (default EXPLORE_FRACTION;
+    as many as the ``seeds``: refine another search's best designs at a finer level without exploring
+    again); ``algorithm`` then refines the best REFINE_STARTS distinct designs with the rest. "local":
+    ``algorithm`` from the family's start point, one run per integer value, the solves shared. With
     ``executor`` "dask" the exploration's designs are solved in parallel on the cluster first.
     The best ``confirm_top`` are re-solved at ``confirm_mesh`` (or with ``confirm_settings``)
     and the answer is the best there. ``objective`` names what ``evaluate_fn`` returns when it
@@ -352,16 +352,13 @@ def optimise(
     them infeasible: never the answer, and a constraint of the local refinement. After
     ``budget`` solves the search goes on, refining from its best, until the best so far was found
     in the first half of the solves (``stopping``) or ``max_budget`` is spent (default ``budget``: no
-    more; ``stopping`` says either way whether the best so far is flat over the last half).
-    ``explore``: the solves of the global stage (default EXPLORE_FRACTION of ``budget``): as many as
-    the seeds to refine another search's best designs at a finer level without exploring again.
-    Raises UserInputError for a family, budget or algorithm that cannot work."""
+    more; ``stopping`` says either way whether the best so far is flat over the last half). Raises
+    UserInputError for a family, budget or algorithm that cannot work."""
     from .scenarios import NO_CONSTRAINTS
 
     fam = family(shape)
     ints = integer_choices(fam, integer_values)
-    _check_request(max_area, algorithm, budget, strategy, fam, ints, seeds)
-    explore = _check_explore(explore, budget, strategy)
+    _check_request(max_area, algorithm, budget, strategy, fam, ints, seeds, explore)
     settings.check_scorable()
     constraints = constraints or NO_CONSTRAINTS
     out = _open_search(out_dir, shape, max_area, settings, strategy, executor,
@@ -369,8 +366,7 @@ def optimise(
     ev = _Evaluator(fam, shape, max_area, settings, History(out / "history.jsonl"),
                     evaluate_fn or _default_evaluate(scenarios, constraints, progress), progress, budget=budget,
                     constraints=constraints)
-    ev.backfill_outlines()
-    ev.refuse_again()
+    ev.resumed()
     if strategy == "global":
         _global_search(fam, ints, ev, algorithm, out, executor, scheduler, seeds, explore)
     else:
@@ -382,16 +378,13 @@ def optimise(
                           list(ev.counted))
 
 
-def _check_explore(explore: int | None, budget: int, strategy: str) -> int | None:
-    """The global stage's solves as asked (None: the default share of the budget), refused when
-    no search could spend them as asked."""
-    if explore is None:
-        return None
-    if strategy != "global":
+def _check_explore(explore: int | None, budget: int, strategy: str) -> None:
+    """Refuse global-stage solves (``explore``; None: the default share of the budget) that no
+    search could spend as asked."""
+    if explore is not None and strategy != "global":
         raise UserInputError("--explore needs --strategy global (the local search does not explore)")
-    if not 1 <= explore <= budget:
+    if explore is not None and not 1 <= explore <= budget:
         raise UserInputError(f"--explore {explore}: the global stage's solves must lie between 1 and --budget ({budget})")
-    return explore
 
 
 def _open_search(out_dir: str | Path, shape: str, max_area: float, settings: EvalSettings, strategy: str,
@@ -605,7 +598,7 @@ def integer_choices(fam: Family, integer_values: Iterable[int] | None) -> tuple:
 
 
 def _check_request(max_area: float, algorithm: str, budget: int, strategy: str, fam: Family, ints: tuple,
-                   seeds: dict[str, GroundPlane] | None) -> None:
+                   seeds: dict[str, GroundPlane] | None, explore: int | None = None) -> None:
     """Refuse, before any work, a search that cannot run."""
     if not (math.isfinite(max_area) and max_area > 0):
         raise UserInputError(f"--max-area must be a positive number of m^2, got {max_area}")
@@ -617,6 +610,7 @@ def _check_request(max_area: float, algorithm: str, budget: int, strategy: str, 
     if strategy not in STRATEGIES:
         raise UserInputError(f"--strategy {strategy}: choose one of {', '.join(STRATEGIES)}")
     check_seeds(fam, max_area, ints, seeds, strategy)
+    _check_explore(explore, budget, strategy)
 
 
 def check_seeds(fam: Family, max_area: float, ints: tuple, seeds: dict[str, GroundPlane] | None,
@@ -829,6 +823,11 @@ class _Evaluator:
             print(f"  eval {len(self.hist.rows):3d} [{phase}]: the plane of eval {row['same_metal_as']} (same outline), "
                   "no solve", file=sys.stderr, flush=True)
         return float(row["objective"])
+
+    def resumed(self) -> None:
+        """Bring a history written by an earlier version up to today's: outlines, refusals."""
+        self.backfill_outlines()
+        self.refuse_again()
 
     def backfill_outlines(self) -> None:
         """Index the scored rows of a history written before rows carried their outline."""
