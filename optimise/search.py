@@ -747,6 +747,7 @@ class _Evaluator:
     solves: int = 0
     _replayed: set = field(default_factory=set)
     counted: list = field(default_factory=list)  # the solved rows in the order this search counted them
+    _seconds: list = field(default_factory=list)  # this run's solve times (the progress line's time left)
 
     def best(self) -> dict[str, Any] | None:
         """The feasible solved row with the lowest FoM within the budget (None: none), of the rows
@@ -810,9 +811,21 @@ class _Evaluator:
             f = f"{row['fom_mk']:.1f} mK" if row["fom_mk"] is not None else row["status"]
             which = f" {self.fam.integer}={n}" if self.fam.integer else ""
             print(f"  eval {len(self.hist.rows):3d} [{phase}, solve {self.solves}/{self.budget}]{which} "
-                  f"x={np.round(x, 3).tolist()} area={row['area_m2']:.1f} m^2 -> {f} ({row['seconds']:.0f} s)",
-                  file=sys.stderr, flush=True)
+                  f"x={np.round(x, 3).tolist()} area={row['area_m2']:.1f} m^2 -> {f} ({row['seconds']:.0f} s"
+                  f"{self._time_left(row)})", file=sys.stderr, flush=True)
         return float(row["objective"])
+
+    def _time_left(self, row: dict[str, Any]) -> str:
+        """'; ~T to the budget's last solve' at the median of this run's solves so far (a resumed
+        search's replayed rows cost nothing and are not counted), or '' before there are three."""
+        if row["status"] in ("ok", "failed"):
+            self._seconds.append(row["seconds"])
+        left = self.budget - self.solves
+        if len(self._seconds) < 3 or left <= 0:
+            return ""
+        t = left * float(np.median(self._seconds))
+        when = f"{t / 3600:.1f} h" if t >= 5400 else f"{t / 60:.0f} min"
+        return f"; ~{when} to solve {self.budget}"
 
     def _same_metal(self, x: np.ndarray, n: int | None, phase: str, twin: dict[str, Any]) -> float:
         """x is a plane already scored under other parameters: its row again, no solve counted."""

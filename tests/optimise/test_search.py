@@ -372,3 +372,16 @@ def row_plane_key(fam, r):
     from optimise.search import row_plane
 
     return row_plane(fam, r).outline_key()
+
+
+def test_a_search_says_how_long_its_budget_will_take(tmp_path, capsys, monkeypatch):
+    """After three solves the progress line gives the time to the budget's last solve at the
+    median solve so far (a long search on a 2-core machine runs for hours)."""
+    import optimise.search as osearch
+
+    clock = iter(range(0, 10_000, 50))  # every perf_counter call 50 s later: each solve "takes" 50 s
+    monkeypatch.setattr(osearch.time, "perf_counter", lambda: float(next(clock)))
+    ev, _ = _fake_eval(lambda p: 100.0 + (p.side - 12.0) ** 2)
+    optimise("square", 400.0, EvalSettings(), tmp_path, budget=8, evaluate_fn=ev, progress=True, strategy="local")
+    lines = [ln for ln in capsys.readouterr().err.splitlines() if "[local, solve" in ln and "mK" in ln]
+    assert "to solve" not in lines[1] and "; ~4 min to solve 8)" in lines[2]  # 5 solves left x 50 s
