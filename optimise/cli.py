@@ -100,6 +100,18 @@ def _run_sweep_cmd(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_stage_options(p: argparse.ArgumentParser) -> None:
+    """How a search spends its solves: the global stage's share, the build tolerance."""
+    p.add_argument("--explore", type=int, metavar="N",
+                   help="solves of the global stage: the seeds and presets first, then a space-filling sample "
+                        "(default 60 %% of --budget); as many as --seed's designs: refine another search's best "
+                        "designs (e.g. at a finer --mesh) without exploring again")
+    p.add_argument("--build-tolerance", type=float, metavar="F",
+                   help="a design whose every parameter lies within F of its range of a solved design is that design "
+                        "(its row, no solve): a crew builds the two alike, and on a coarse mesh their FoMs differ by "
+                        "remeshing alone (e.g. 0.001: 2.6 cm on teeth-xy's side; default: every design solved)")
+
+
 @command("optimise", "nlopt search of a shape family under a metal-area budget")
 def _setup_optimise(p: argparse.ArgumentParser):
     from .search import optimisable
@@ -116,10 +128,7 @@ def _setup_optimise(p: argparse.ArgumentParser):
                         "of the best few; local: the algorithm from one start per integer value")
     p.add_argument("--algorithm", default="LN_COBYLA", help="nlopt algorithm taking constraints (default LN_COBYLA)")
     p.add_argument("--budget", type=int, default=30, help="solves per search, across every integer value (default 30)")
-    p.add_argument("--explore", type=int, metavar="N",
-                   help="solves of the global stage: the seeds and presets first, then a space-filling sample "
-                        "(default 60 %% of --budget); as many as --seed's designs: refine another search's best "
-                        "designs (e.g. at a finer --mesh) without exploring again")
+    _add_stage_options(p)
     p.add_argument("--executor", choices=["local", "dask"], default="local",
                    help="dask: solve the exploration's designs in parallel on a cluster first")
     p.add_argument("--scheduler", help="Dask scheduler address (default: a local cluster)")
@@ -192,7 +201,8 @@ def _run_pareto(args: argparse.Namespace, seeds: dict | None = None) -> int:
     front = pareto_front(args.shape, args.pareto, settings, confirm, out, budget=args.budget, answer_mesh=answer or None,
                          ladder=args.ladder, confirm_top=args.confirm_top, executor=args.executor,
                          scheduler=args.scheduler, scenarios=scenarios, constraints=constraints,
-                         max_budget=args.max_budget, seeds=seeds, explore=args.explore)
+                         max_budget=args.max_budget, seeds=seeds, explore=args.explore,
+                         build_tolerance=args.build_tolerance)
     from .scenarios import describe_set
 
     path = write_report(front, out, invocation(), settings, confirm, objective=describe_set(scenarios, constraints),
@@ -209,7 +219,8 @@ def _search_options(args: argparse.Namespace, seeds: dict | None = None) -> dict
     """The search's own flags, for every kind of search (one place, so none is silently dropped)."""
     return {"algorithm": args.algorithm, "strategy": args.strategy, "confirm_top": args.confirm_top,
             "integer_values": tuple(args.integers) if args.integers else None, "executor": args.executor,
-            "scheduler": args.scheduler, "seeds": seeds or None, "explore": args.explore}
+            "scheduler": args.scheduler, "seeds": seeds or None, "explore": args.explore,
+            "build_tolerance": args.build_tolerance}
 
 
 def _seeds(args: argparse.Namespace) -> dict:

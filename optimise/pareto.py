@@ -167,11 +167,11 @@ def pareto_front(shape: str, budgets: list[float], settings: EvalSettings, confi
                  executor: str = "local", scheduler: str | None = None, progress: bool = True,
                  floor: Callable[[EvalSettings], float] = pec_floor_mk, scenarios=None, constraints=None,
                  max_budget: int | None = None, seeds: dict[str, Any] | None = None,
-                 explore: int | None = None) -> Front:
+                 explore: int | None = None, build_tolerance: float | None = None) -> Front:
     """Search ``shape`` at each metal budget (``out/budget-<A>/``, each resumable; a design met
     again is a cache hit), confirm, answer; then the presets, the floor and the ladder. Each
     budget scores first the smaller budgets' answers, then the ``seeds`` (named planes) that fit it, in
-    its ``explore`` solves of the global stage (:func:`optimise.search.optimise`). With
+    its ``explore`` solves of the global stage (:func:`optimise.search.optimise`, as is ``build_tolerance``). With
     ``scenarios`` every design is scored on each member (the set's aggregate the objective) and
     ``constraints`` decide which designs can be an answer."""
     from .scenarios import scenario_evaluator
@@ -197,7 +197,7 @@ def pareto_front(shape: str, budgets: list[float], settings: EvalSettings, confi
                        progress=progress, confirm_settings=confirm, confirm_top=confirm_top, executor=executor,
                        scheduler=scheduler, seeds=smaller, constraints=constraints, max_budget=max_budget,
                        objective={"scenarios": scenarios.identity()} if scenarios is not None else None,
-                       explore=explore)
+                       explore=explore, build_tolerance=build_tolerance)
         results[b] = res
         write_convergence(out / f"budget-{b:g}", res)
         answers.append(_answer(shape, b, res, confirm, answer_mesh, scored, constraints))

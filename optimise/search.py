@@ -333,6 +333,7 @@ def optimise(
     constraints: "Constraints | None" = None,
     max_budget: int | None = None,
     explore: int | None = None,
+    build_tolerance: float | None = None,
 ) -> OptimiseResult:
     """Minimise the LST-averaged FoM of ``shape`` with metal area <= ``max_area`` (m^2), in at
     most ``budget`` solves (designs that are invalid or over the budget cost none).
@@ -342,30 +343,29 @@ def optimise(
     as many as the ``seeds``: refine another search's best designs at a finer level without exploring
     again); ``algorithm`` then refines the best REFINE_STARTS distinct designs with the rest. "local":
     ``algorithm`` from the family's start point, one run per integer value, the solves shared. With
-    ``executor`` "dask" the exploration's designs are solved in parallel on the cluster first.
-    The best ``confirm_top`` are re-solved at ``confirm_mesh`` (or with ``confirm_settings``)
-    and the answer is the best there. ``objective`` names what ``evaluate_fn`` returns when it
-    is not the plain FoM (e.g. the mean over soils), so a resume refuses another one. ``seeds``:
-    more named designs the global search scores first (before the presets). ``scenarios``: each
-    design is scored on every member of the set (its aggregate the objective) unless
-    ``evaluate_fn`` is given; ``constraints`` (ground loss, its spread) make a design that breaks
-    them infeasible: never the answer, and a constraint of the local refinement. After
-    ``budget`` solves the search goes on, refining from its best, until the best so far was found
-    in the first half of the solves (``stopping``) or ``max_budget`` is spent (default ``budget``: no
-    more; ``stopping`` says either way whether the best so far is flat over the last half). Raises
-    UserInputError for a family, budget or algorithm that cannot work."""
+    ``executor`` "dask" the exploration's designs are solved in parallel on the cluster first. The best
+    ``confirm_top`` are re-solved at ``confirm_mesh`` (or with ``confirm_settings``) and the answer is
+    the best there. ``objective`` names what ``evaluate_fn`` returns when it is not the plain FoM (e.g.
+    the mean over soils), so a resume refuses another one. ``seeds``: more named designs the global
+    search scores first (before the presets). ``scenarios``: each design is scored on every member of
+    the set (its aggregate the objective) unless ``evaluate_fn`` is given; ``constraints`` (ground
+    loss, its spread) make a design that breaks them infeasible: never the answer, and a constraint
+    of the local refinement. Past ``budget`` solves it refines from its best until the best so far lies
+    in the first half of the solves or ``max_budget`` is spent (``stopping`` says which). With
+    ``build_tolerance`` a design within it (of each parameter's range) of a solved one is that one
+    (:meth:`_Evaluator._built_alike`). Raises UserInputError for a request that cannot work."""
     from .scenarios import NO_CONSTRAINTS
 
-    fam = family(shape)
+    fam, rules = family(shape), {"explore": explore, "build_tolerance": build_tolerance}
     ints = integer_choices(fam, integer_values)
-    _check_request(max_area, algorithm, budget, strategy, fam, ints, seeds, explore)
+    _check_request(max_area, algorithm, budget, strategy, fam, ints, seeds, **rules)
     settings.check_scorable()
     constraints = constraints or NO_CONSTRAINTS
     out = _open_search(out_dir, shape, max_area, settings, strategy, executor,
-                       _objective(objective, scenarios, constraints), scenarios, explore)
+                       _objective(objective, scenarios, constraints), scenarios, rules)
     ev = _Evaluator(fam, shape, max_area, settings, History(out / "history.jsonl"),
                     evaluate_fn or _default_evaluate(scenarios, constraints, progress), progress, budget=budget,
-                    constraints=constraints)
+                    constraints=constraints, build_tolerance=build_tolerance)
     ev.resumed()
     if strategy == "global":
         _global_search(fam, ints, ev, algorithm, out, executor, scheduler, seeds, explore)
@@ -388,15 +388,16 @@ def _check_explore(explore: int | None, budget: int, strategy: str) -> None:
 
 
 def _open_search(out_dir: str | Path, shape: str, max_area: float, settings: EvalSettings, strategy: str,
-                 executor: str, objective: dict[str, Any] | None, scenarios, explore: int | None = None) -> Path:
+                 executor: str, objective: dict[str, Any] | None, scenarios, rules: dict | None = None) -> Path:
     """The search's folder, refused when it holds another search (a resume must ask the same)."""
     if scenarios is not None and scenarios.name != "nominal" and executor != "local":
         raise UserInputError("--executor dask presolves one beam per design; a search over a scenario set runs "
                              "locally (its members of one model are solved together)")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    # another explore share or build tolerance takes another path: part of the search, as asked
     extra = {**({"strategy": strategy} if strategy != "local" else {}), **({"objective": objective} if objective else {}),
-             **({"explore": explore} if explore is not None else {})}  # another share takes another path
+             **{k: v for k, v in (rules or {}).items() if v is not None}}
     same_search(out, {"shape": shape, "max_area": max_area, "settings": settings.identity(), **extra,
                       "model": engine_model(settings)})
     return out
@@ -598,7 +599,8 @@ def integer_choices(fam: Family, integer_values: Iterable[int] | None) -> tuple:
 
 
 def _check_request(max_area: float, algorithm: str, budget: int, strategy: str, fam: Family, ints: tuple,
-                   seeds: dict[str, GroundPlane] | None, explore: int | None = None) -> None:
+                   seeds: dict[str, GroundPlane] | None, explore: int | None = None,
+                   build_tolerance: float | None = None) -> None:
     """Refuse, before any work, a search that cannot run."""
     if not (math.isfinite(max_area) and max_area > 0):
         raise UserInputError(f"--max-area must be a positive number of m^2, got {max_area}")
@@ -611,6 +613,9 @@ def _check_request(max_area: float, algorithm: str, budget: int, strategy: str, 
         raise UserInputError(f"--strategy {strategy}: choose one of {', '.join(STRATEGIES)}")
     check_seeds(fam, max_area, ints, seeds, strategy)
     _check_explore(explore, budget, strategy)
+    if build_tolerance is not None and not 0 < build_tolerance < 0.5:
+        raise UserInputError(f"--build-tolerance {build_tolerance}: a fraction of each parameter's range, above 0 "
+                             "and below 0.5 (0.001: 2.6 cm on teeth-xy's side)")
 
 
 def check_seeds(fam: Family, max_area: float, ints: tuple, seeds: dict[str, GroundPlane] | None,
@@ -748,6 +753,7 @@ class _Evaluator:
     _replayed: set = field(default_factory=set)
     counted: list = field(default_factory=list)  # the solved rows in the order this search counted them
     _seconds: list = field(default_factory=list)  # this run's solve times (the progress line's time left)
+    build_tolerance: float | None = None  # of each parameter's range: within it of a solved design, that design
 
     def best(self) -> dict[str, Any] | None:
         """The feasible solved row with the lowest FoM within the budget (None: none), of the rows
@@ -794,6 +800,8 @@ class _Evaluator:
         why = self.reason(x, n)
         if why is None and (twin := self.hist.same_metal((plane or self.fam.build(x, n)).outline_key())) is not None:
             return self._same_metal(x, n, phase, twin)
+        if why is None and plane is None and (twin := self._built_alike(x, n)) is not None:
+            return self._same_metal(x, n, phase, twin, "within the build tolerance")
         if why is None and self.solves >= self.budget:
             raise BudgetSpent
         t0 = time.perf_counter()
@@ -827,13 +835,28 @@ class _Evaluator:
         when = f"{t / 3600:.1f} h" if t >= 5400 else f"{t / 60:.0f} min"
         return f"; ~{when} to solve {self.budget}"
 
-    def _same_metal(self, x: np.ndarray, n: int | None, phase: str, twin: dict[str, Any]) -> float:
-        """x is a plane already scored under other parameters: its row again, no solve counted."""
+    def _built_alike(self, x: np.ndarray, n: int | None) -> dict[str, Any] | None:
+        """With a build tolerance: the solved row (same integer) nearest x whose every parameter lies
+        within the tolerance x its range of x's (a crew would build the two alike), else None."""
+        if not self.build_tolerance:
+            return None
+        span = np.array(self.fam.upper, float) - np.array(self.fam.lower, float)
+        span = np.where(span > 0, span, 1.0)
+        near = [(float(np.abs((np.asarray(r["x"], float) - x) / span).max()), i) for i, r in enumerate(self.hist.rows)
+                if r["status"] in ("ok", "failed") and "same_metal_as" not in r and r.get("integer") == n]
+        d, i = min(near, default=(np.inf, -1))
+        return self.hist.rows[i] if d <= self.build_tolerance else None
+
+    def _same_metal(self, x: np.ndarray, n: int | None, phase: str, twin: dict[str, Any],
+                    why: str = "same outline") -> float:
+        """x is a plane already scored under other parameters (or, ``why`` says, one built alike):
+        its row again, no solve counted."""
         row = {**twin, "integer": n, "x": [float(v) for v in x], "params": self.fam.params(x, n), "phase": phase,
-               "same_metal_as": self.hist.rows.index(twin) + 1, "seconds": 0.0}
+               "same_metal_as": self.hist.rows.index(twin) + 1, "seconds": 0.0,
+               **({"built_alike": True} if why != "same outline" else {})}
         self.hist.add(row)
         if self.progress:
-            print(f"  eval {len(self.hist.rows):3d} [{phase}]: the plane of eval {row['same_metal_as']} (same outline), "
+            print(f"  eval {len(self.hist.rows):3d} [{phase}]: the plane of eval {row['same_metal_as']} ({why}), "
                   "no solve", file=sys.stderr, flush=True)
         return float(row["objective"])
 

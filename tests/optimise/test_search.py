@@ -385,3 +385,29 @@ def test_a_search_says_how_long_its_budget_will_take(tmp_path, capsys, monkeypat
     optimise("square", 400.0, EvalSettings(), tmp_path, budget=8, evaluate_fn=ev, progress=True, strategy="local")
     lines = [ln for ln in capsys.readouterr().err.splitlines() if "[local, solve" in ln and "mK" in ln]
     assert "to solve" not in lines[1] and "; ~4 min to solve 8)" in lines[2]  # 5 solves left x 50 s
+
+
+def test_a_build_tolerance_scores_a_design_a_crew_builds_alike_from_the_solved_one(tmp_path):
+    """--build-tolerance F: a proposal within F of each parameter's range of a solved design gets that
+    design's row without a solve (not counted by the stopping rule); one beyond F is solved; the
+    tolerance is part of the search (a resume asking another is refused); nonsense is refused."""
+    from groundplane.errors import UserInputError
+    from optimise.search import solved_rows
+
+    ev, calls = _fake_eval(lambda p: 100.0 + (p.side - 12.0) ** 2 + 0.01 * math.sin(1e4 * p.side))  # "remeshing"
+    res = optimise("square", 400.0, EvalSettings(), tmp_path / "tol", budget=25, evaluate_fn=ev, progress=False,
+                   strategy="local", build_tolerance=0.01)
+    alike = [r for r in res.history if r.get("built_alike")]
+    assert alike, "COBYLA's last small steps should fall within 1 % of the side's range of a solved design"
+    fam = family("square")
+    span = fam.upper[0] - fam.lower[0]
+    for r in alike:
+        twin = res.history[r["same_metal_as"] - 1]
+        assert abs(r["x"][0] - twin["x"][0]) <= 0.01 * span and r["fom_mk"] == twin["fom_mk"]
+    assert len(calls) == len(solved_rows(res.history)) < len([r for r in res.history if r["status"] == "ok"])
+    with pytest.raises(UserInputError, match="another search|differs|build_tolerance"):
+        optimise("square", 400.0, EvalSettings(), tmp_path / "tol", budget=25, evaluate_fn=ev, progress=False,
+                 strategy="local", build_tolerance=0.02)
+    with pytest.raises(UserInputError, match="--build-tolerance 0.7: a fraction of each parameter's range"):
+        optimise("square", 400.0, EvalSettings(), tmp_path / "bad", budget=5, evaluate_fn=ev, progress=False,
+                 build_tolerance=0.7)
