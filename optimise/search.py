@@ -825,8 +825,9 @@ class _Evaluator:
 
     def _time_left(self, row: dict[str, Any]) -> str:
         """'; ~T to the budget's last solve' at the median of this run's solves so far (a resumed
-        search's replayed rows cost nothing and are not counted), or '' before there are three."""
-        if row["status"] in ("ok", "failed"):
+        search's replayed rows and beams found in the cache, under a second, are not counted), or ''
+        before there are three."""
+        if row["status"] in ("ok", "failed") and row["seconds"] >= 1.0:
             self._seconds.append(row["seconds"])
         left = self.budget - self.solves
         if len(self._seconds) < 3 or left <= 0:
