@@ -3,9 +3,10 @@ plane was solved and its median's gap above the best (optimise.search.remeshings
 the best design moved over the second half (largest parameter change, m), and, as a what-if only,
 the verdict had the tolerance been that gap. Rows a later check refuses (too fine for the 0.7 m
 search mesh) are dropped as the search's resume drops them; the search's other checks are not
-repeated, so a count can exceed the search's own (the 400 m^2 history at 2026-12-05 15:15: 281 here, 266 in its log). Run from the checkout: python results/robust_front/convergence_facts.py"""
+repeated, so a count can exceed the search's own (the 400 m^2 history at 2026-12-05 15:15: 281 here, 266 in its log). Run from the checkout: python results/robust_front/convergence_facts.py [--folder DIR] [BUDGET ...]
+(--folder: another front's folder, e.g. results/robust_front_0.5m; its searches' mesh is read from it)."""
+import argparse
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +14,11 @@ import numpy as np
 from groundplane.shapes import ShapeError
 from optimise.search import best_so_far, family, flat_over_last_half, solved_rows, too_fine_for
 
-HERE = Path(__file__).parent
+ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+ap.add_argument("--folder", type=Path, default=Path(__file__).parent)
+ap.add_argument("budgets", nargs="*", default=["200", "400", "600", "900"])
+args = ap.parse_args()
+HERE = args.folder
 fam = family("teeth-xy")
 span = np.array(fam.upper, float) - np.array(fam.lower, float)
 
@@ -28,11 +33,11 @@ def refused(row: dict) -> bool:
         return True
 
 
-SEARCH_MESH_M = json.loads((HERE / "budget-600" / "search.json").read_text())["settings"]["mesh"]["spacing"]
+SEARCH_MESH_M = json.loads((HERE / f"budget-{args.budgets[0]}" / "search.json").read_text())["settings"]["mesh"]["spacing"]
 print("| budget (m^2) | solves | best at | tolerance | flat | best plane solved | median above best | "
       "largest move of the best, second half (m) | what-if: tolerance = that gap |")
 print("|---|---|---|---|---|---|---|---|---|")
-for budget in sys.argv[1:] or ["200", "400", "600", "900"]:
+for budget in args.budgets:
     rows = [json.loads(line) for line in (HERE / f"budget-{budget}" / "history.jsonl").open()]
     rows = [r for r in rows if "same_metal_as" not in r and not refused(r)]
     stop = flat_over_last_half(rows, span=span)
