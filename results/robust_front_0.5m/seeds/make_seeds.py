@@ -8,6 +8,7 @@ are taken best first (worst soil member at 0.7 m), skipping any within DISTINCT 
 taken in every parameter (relative to the parameter's range: a remeshing of the same plane is not
 another start), and each is checked against the 0.5 m mesh's rules; the first ``--top`` are written
 here as design files (``budget-<A>-<i>.json``) for ``groundplane optimise --seed ... --explore``.
+A budget with no feasible row (200 m^2) takes the rows that break the loss limit least.
 """
 import argparse
 import json
@@ -25,9 +26,11 @@ MESH = 0.5
 
 
 def best_distinct(rows: list[dict], span: np.ndarray, top: int) -> list[dict]:
-    """The best feasible solved rows, each at least DISTINCT x ``span`` from every one taken before."""
-    ok = sorted((r for r in rows if r["status"] == "ok" and r.get("feasible", True) and "same_metal_as" not in r),
-                key=lambda r: r["fom_mk"])
+    """The best feasible solved rows (with none feasible, as the search's answer does: those breaking
+    the constraints least), each at least DISTINCT x ``span`` from every one taken before."""
+    scored = [r for r in rows if r["status"] == "ok" and "same_metal_as" not in r]
+    ok = sorted((r for r in scored if r.get("feasible", True)), key=lambda r: r["fom_mk"]) or sorted(
+        scored, key=lambda r: (max(r.get("margins") or [0.0]), r["fom_mk"]))
     taken: list[dict] = []
     for r in ok:
         x = np.asarray(r["x"], float) / span
@@ -56,7 +59,9 @@ def main() -> None:
             plane = row_plane(fam, r)
             out = here / f"budget-{b:g}-{i}.json"
             out.write_text(json.dumps({"shape": shape, **{k: v for k, v in r["params"].items()}}, indent=1) + "\n")
-            print(f"{out.name}: {r['fom_mk']:.1f} mK at 0.7 m (solve phase {r['phase']}), {plane.metal_area:.1f} m^2")
+            broken = "" if r.get("feasible", True) else f", breaks {max(r.get('margins') or [0.0]):+.3f} (relative)"
+            print(f"{out.name}: {r['fom_mk']:.1f} mK at 0.7 m (solve phase {r['phase']}), {plane.metal_area:.1f} m^2"
+                  + broken)
 
 
 if __name__ == "__main__":
