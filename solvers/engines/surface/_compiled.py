@@ -60,18 +60,23 @@ def rule_moments(po: np.ndarray, wo: np.ndarray, ps: np.ndarray, ws: np.ndarray,
 
 @numba.njit(cache=True, nogil=True)
 def reflected_rule_moments(po: np.ndarray, wo: np.ndarray, ps: np.ndarray, ws: np.ndarray, pairs: np.ndarray,
-                           zetas: np.ndarray, tables: np.ndarray, step: float, sign: float,
+                           zetas: np.ndarray, tables: np.ndarray, steps: np.ndarray, sizes: np.ndarray, sign: float,
                            out_a: np.ndarray, out_q: np.ndarray) -> None:
-    """Add ``sign`` x the soil's reflected kernels by the product of two point rules (shapes
-    as :func:`rule_moments`): the six moments of S(R_TE) into ``out_a`` [6, P] and S0 of
-    S(R_q - K_q) into ``out_q`` [P]. The kernels are ``ReflectedKernels.lookup``'s: the table
-    of the nearest height sum ``zetas``, linear in rho on a grid of ``step``."""
-    n_rho = tables.shape[2]
-    acc = np.zeros((6, 1), np.complex128)  # one pair's sums, added once
+    """Add ``sign`` x each soil's reflected kernels by the product of two point rules (shapes
+    as :func:`rule_moments`): the six moments of S(R_TE) into ``out_a`` [S, 6, P] and S0 of
+    S(R_q - K_q) into ``out_q`` [S, P], for S soils at once. Their tables, as real numbers
+    [n_zeta, n, S, 4] (Re, Im of S(R_TE), then of S(R_q - K_q); soil s's first ``sizes[s]``
+    samples, on a grid of ``steps[s]``), share the height sums ``zetas``. The kernels are
+    ``ReflectedKernels.lookup``'s: the table of the nearest height sum, linear in rho. The point
+    pairs' geometry is paid once for every soil (the soils of a scenario set are solved together:
+    ``pfft.reflected_near``), and the arithmetic is real (the weights are: numba multiplies a
+    complex by a real as by a complex), the same numbers to the last bit."""
+    n_soil = tables.shape[2]
+    acc = np.zeros((n_soil, 14))  # one pair's sums (Re, Im of six moments, then of S0 of the charge kernel)
+    fac = np.empty(6)
     for p in range(pairs.shape[0]):
         o, s = pairs[p, 0], pairs[p, 1]
-        acc[:, 0] = 0.0
-        acc_q = 0j
+        acc[:, :] = 0.0
         for i in range(po.shape[1]):
             xo, yo, zo = po[o, i, 0], po[o, i, 1], po[o, i, 2]
             for j in range(ps.shape[1]):
@@ -81,16 +86,27 @@ def reflected_rule_moments(po: np.ndarray, wo: np.ndarray, ps: np.ndarray, ws: n
                 for z in range(1, zetas.shape[0]):
                     if zeta > 0.5 * (zetas[z - 1] + zetas[z]):
                         which = z
-                x = np.sqrt((xo - xs) ** 2 + (yo - ys) ** 2) / step
-                at = min(int(x), n_rho - 2)
-                f = x - at
+                rho = np.sqrt((xo - xs) ** 2 + (yo - ys) ** 2)
                 w = sign * wo[o, i] * ws[s, j]
-                a = tables[which, 0, at] * (1 - f) + tables[which, 0, at + 1] * f
-                q = tables[which, 1, at] * (1 - f) + tables[which, 1, at + 1] * f
-                _add_moments(acc, 0, 0, a * w, xo, yo, xs, ys)
-                acc_q += q * w
-        out_a[:, p] += acc[:, 0]
-        out_q[p] += acc_q
+                fac[0], fac[1], fac[2], fac[3], fac[4], fac[5] = 1.0, xo, yo, xo * xs + yo * ys, xs, ys
+                for k in range(n_soil):
+                    x = rho / steps[k]
+                    at = min(int(x), sizes[k] - 2)
+                    f = x - at
+                    g = 1 - f
+                    ar = (tables[which, at, k, 0] * g + tables[which, at + 1, k, 0] * f) * w
+                    ai = (tables[which, at, k, 1] * g + tables[which, at + 1, k, 1] * f) * w
+                    acc[k, 12] += (tables[which, at, k, 2] * g + tables[which, at + 1, k, 2] * f) * w
+                    acc[k, 13] += (tables[which, at, k, 3] * g + tables[which, at + 1, k, 3] * f) * w
+                    acc[k, 0] += ar
+                    acc[k, 1] += ai
+                    for m in range(1, 6):
+                        acc[k, 2 * m] += ar * fac[m]
+                        acc[k, 2 * m + 1] += ai * fac[m]
+        for k in range(n_soil):
+            for m in range(6):
+                out_a[k, m, p] += complex(acc[k, 2 * m], acc[k, 2 * m + 1])
+            out_q[k, p] += complex(acc[k, 12], acc[k, 13])
 
 
 @numba.njit(cache=True, nogil=True)
@@ -177,3 +193,27 @@ def scatter_values(data: np.ndarray, slot: np.ndarray, cc: np.ndarray, free_o: n
                 if scalar:
                     v += c_q * mq[p]
                 data[at] += cc[p, i, j] * v
+
+
+@numba.njit(cache=True, nogil=True)
+def kernel_products(kf: np.ndarray, f: np.ndarray, out: np.ndarray) -> None:
+    """The matvec's spectral products, in one pass over memory: ``out[c, lo] = sum_s kf[lo, s, k_c]
+    * f[c, s]`` for the sources' spectra ``f`` [3 (Jx, Jy, charge), n_lev, sx, sy] and the kernels'
+    ``kf`` [n_lev, n_lev, 2 (vector, scalar), sx, sy] (k_c = 0 for the currents, 1 for the charge).
+    The two current channels share each vector kernel value read (numpy's einsum, one channel and
+    level a call, read every kernel plane twice)."""
+    n_lev, sx, sy = kf.shape[0], f.shape[2], f.shape[3]
+    for lo in range(n_lev):
+        for i in range(sx):
+            for j in range(sy):
+                a0 = 0j
+                a1 = 0j
+                a2 = 0j
+                for s in range(n_lev):
+                    kv = kf[lo, s, 0, i, j]
+                    a0 += kv * f[0, s, i, j]
+                    a1 += kv * f[1, s, i, j]
+                    a2 += kf[lo, s, 1, i, j] * f[2, s, i, j]
+                out[0, lo, i, j] = a0
+                out[1, lo, i, j] = a1
+                out[2, lo, i, j] = a2

@@ -97,6 +97,8 @@ class FastModel:
     _series: "NearSeries | None" = None
     _assembly: "StaticAssembly | None" = None
     _rows_of_level: "list[slice] | None" = None
+    _project_t: "sp.csr_matrix | None" = None
+    _testing: "tuple[sp.csr_matrix, sp.csr_matrix] | None" = None
 
     def series(self, k: float) -> "NearSeries":
         """The engine's near moments as a series in k, (re)built when ``k`` is beyond it."""
@@ -125,6 +127,25 @@ class FastModel:
         import scipy.fft
 
         return scipy.fft.next_fast_len(2 * self.grid.nx), scipy.fft.next_fast_len(2 * self.grid.ny)
+
+    @property
+    def testing(self) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+        """(C1^T, -Cx^T, -Cy^T stacked: each triangle's linear current J = alpha rho + beta, div J =
+        2 alpha, from the currents in one product; C1, Cx, Cy side by side: the solved rows'
+        testing of the potentials), made once for every soil and frequency."""
+        if self._testing is None:
+            prob, rows = self.prob, self.rows
+            self._testing = (sp.vstack([prob.c1.T, -prob.cv[0].T, -prob.cv[1].T]).tocsr(),
+                             sp.hstack([prob.c1[rows], prob.cv[0][rows], prob.cv[1][rows]]).tocsr())
+        return self._testing
+
+    @property
+    def project_t(self) -> sp.csr_matrix:
+        """The projection's transpose in rows (grid nodes -> points), made once: a product with the
+        CSC transpose of ``project`` was the slowest sparse product of a matvec."""
+        if self._project_t is None:
+            self._project_t = self.project.T.tocsr()
+        return self._project_t
 
     @property
     def rows_of_level(self) -> list[slice]:
@@ -265,7 +286,7 @@ def fast_model(prob: Problem, symmetric: bool) -> FastModel:
         # a worker is kept from one design to the next (``workers.shared_pool``): let go of everything
         # the last design held (its frequency's terms, LU and currents reference its model) before
         # building this one, so that a worker never holds two designs' models at once
-        for kept in (_CACHE, _TERMS, _LU, _START):
+        for kept in (_CACHE, _TERMS, _LU, _START, _SOIL_NEAR):
             kept.clear()
         symmetry = MirrorSymmetry.of(prob.mesh, prob.rwg) if symmetric else None
         _CACHE[key] = build_fast_model(prob, symmetry)
@@ -361,20 +382,65 @@ def rule_moments(mesh, pairs: np.ndarray, k: float, rule, direct: bool = True, i
     return compiled(p, w, p, w, np.ascontiguousarray(pairs, dtype=np.int64), k, direct, image)
 
 
-def reflected_moments(mesh, pairs: np.ndarray, kernels, near: bool) -> tuple[np.ndarray, np.ndarray]:
-    """The soil's reflected kernels over triangle pairs: (six moments of S(R_TE) [6, P], S0 of
-    S(R_q - K_q) [P]) by the fill's 3 x 3 points, or (``near``) the near pairs' correction,
-    7 x 7 minus 3 x 3 (``operators.reflected_near``'s)."""
+def reflected_moments(mesh, pairs: np.ndarray, kernels: list, near: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Each soil's reflected kernels (``kernels``: one ``ReflectedKernels`` a soil, on the mesh's
+    height sums) over triangle pairs: (six moments of S(R_TE) [S, 6, P], S0 of S(R_q - K_q) [S, P])
+    by the fill's 3 x 3 points, or (``near``) the near pairs' correction, 7 x 7 minus 3 x 3
+    (``operators.reflected_near``'s); every soil in one pass over the point pairs."""
     from ._compiled import reflected_rule_moments
 
-    out_a = np.zeros((6, len(pairs)), complex)
-    out_q = np.zeros(len(pairs), complex)
+    zetas = kernels[0].zetas
+    if any(not np.array_equal(k.zetas, zetas) for k in kernels):
+        raise ValueError("reflected_moments: the soils' tables are for different height sums")
+    sizes = np.array([k.tables.shape[2] for k in kernels], np.int64)
+    tables = np.zeros((len(zetas), int(sizes.max()), len(kernels), 2), complex)  # padded: steps differ by soil
+    for i, k in enumerate(kernels):
+        tables[:, :sizes[i], i, :] = k.tables.transpose(0, 2, 1)
+    tables = tables.view(float)  # [n_zeta, n, S, 4]: Re, Im of each kernel
+    steps = np.array([k.step for k in kernels])
+    out_a = np.zeros((len(kernels), 6, len(pairs)), complex)
+    out_q = np.zeros((len(kernels), len(pairs)), complex)
     pairs = np.ascontiguousarray(pairs, dtype=np.int64)
-    args = (kernels.zetas, np.ascontiguousarray(kernels.tables), kernels.step)
     for rule, sign in (((Q7, 1.0), (Q3, -1.0)) if near else ((Q3, 1.0),)):
         p, w = quadrature_points(mesh, rule)
-        reflected_rule_moments(p, w, p, w, pairs, *args, sign, out_a, out_q)
+        reflected_rule_moments(p, w, p, w, pairs, zetas, tables, steps, sizes, sign, out_a, out_q)
     return out_a, out_q
+
+
+REFLECTED_BLOCK = 32768  # triangle pairs a block: bounds the moments held for five soils (~10 MB)
+SOILS_TOGETHER = True  # a design's soils' reflected near terms in one pass over the point pairs (False: one a pass)
+_SOIL_NEAR: dict[tuple[int, float], tuple] = {}
+
+
+def reflected_near(model: FastModel, terms: "FrequencyTerms", soils: list[tuple[float, float]]) -> list[np.ndarray]:
+    """Each soil's reflected kernels' share of the near matrix (CSR values over the model's
+    assembly) at the terms' frequency: the precorrection pairs by the fill's 3 x 3 points, the
+    image near pairs' 7 x 7 - 3 x 3 corrections. The soils are computed in one pass over the
+    point pairs (their geometry is the common cost: ``benchmarks/bench_soil_passes.py``) and
+    kept for the design's next soils at that frequency; a soil found kept is handed over
+    (and let go)."""
+    key = (id(model), float(terms.freq_hz))
+    if _SOIL_NEAR.get(key, (None,))[0] is not model:  # the entry holds its model, so its id is never another's
+        _SOIL_NEAR.clear()
+        _SOIL_NEAR[key] = (model, {})
+    kept = _SOIL_NEAR[key][1]
+    soils = [(float(e), float(s)) for e, s in soils]
+    todo = [s for s in dict.fromkeys(soils) if s not in kept]
+    if todo:
+        prob = model.prob
+        kernels = prob.reflected_kernels_many(terms.freq_hz, todo, FAR_REACH_CELLS * model.grid.h)
+        asm, c_q = model.assembly(), 4 * terms.c_phi
+        passes = [list(range(len(todo)))] if SOILS_TOGETHER else [[i] for i in range(len(todo))]
+        values = [np.zeros(asm.nnz, complex) for _ in todo]
+        for which, pairs, near in ((0, model.pairs, False), (2, model.near_pairs(True), True)):
+            for start in range(0, len(pairs), REFLECTED_BLOCK):
+                block = pairs[start:start + REFLECTED_BLOCK]
+                for group in passes:
+                    ma, mq = reflected_moments(prob.mesh, block, [kernels[i] for i in group], near)
+                    for i, a, q in zip(group, ma, mq):
+                        asm.add(values[i], which, a, q, terms.c_a, c_q, start)
+        kept.update(zip(todo, values))
+    return [kept.pop(s) if len(soils) == 1 else kept[s] for s in soils]
 
 
 class _BasisAssembler:
@@ -436,13 +502,15 @@ class StaticAssembly:
         self.indptr = np.searchsorted(uniq // a.shape[1], np.arange(a.shape[0] + 1)).astype(np.int32)
 
     def add(self, data: np.ndarray, which: int, ma: np.ndarray | None, mq: np.ndarray | None, c_a: complex,
-            c_q: complex) -> None:
+            c_q: complex, start: int = 0) -> None:
         """Add list ``which``'s basis-pair values of triangle-pair moments (vector ``ma``
-        [6, P] times ``c_a``, scalar ``mq`` [P] times ``c_q``; either may be None) into ``data``."""
+        [6, P] times ``c_a``, scalar ``mq`` [P] times ``c_q``; either may be None) into ``data``;
+        the moments are of the list's pairs from ``start`` on (a block of them)."""
         from ._compiled import scatter_values
 
         none = np.zeros(0, complex)
-        slot, cc, free_o, free_s = self.lists[which]
+        n = (ma if ma is not None else mq).shape[-1]
+        slot, cc, free_o, free_s = (x[start:start + n] for x in self.lists[which])
         scatter_values(data, slot, cc, free_o, free_s, none.reshape(0, 0) if ma is None else np.ascontiguousarray(ma),
                        none if mq is None else np.ascontiguousarray(mq), complex(c_a), complex(c_q))
 
@@ -620,49 +688,38 @@ class FastOperator:
             kernels = prob.reflected_kernels(freq_hz, FAR_REACH_CELLS * g.h, soil)
             table = _reflected_tables(model, kernels)
             kernel_fft += _spectra(model, table)
-            asm, mesh, c_q = model.assembly(), prob.mesh, 4 * self.c_phi
+            asm, c_q = model.assembly(), 4 * self.c_phi
             gm = grid_moments(model, table, model.pairs, 1)  # S(R_q - K_q) enters the scalar potential alone
             asm.add(grid, 0, gm[0], gm[1, 0], self.c_a, c_q)
-            fa, fq = reflected_moments(mesh, model.pairs, kernels, near=False)
-            asm.add(near, 0, fa, fq, self.c_a, c_q)
-            ca, cq = reflected_moments(mesh, model.near_pairs(True), kernels, near=True)
-            asm.add(near, 2, ca, cq, self.c_a, c_q)
+            near += reflected_near(model, terms, [soil])[0]
         self.kernel_fft = kernel_fft
         asm = model.assembly()
         self.pre, self.near = asm.matrix(near - grid), asm.matrix(near)
-        self.c1t = prob.c1.T.tocsr()
-        self.cvt = [c.T.tocsr() for c in prob.cv]
-        # testing: rows of C1, Cx, Cy for the solved rows
-        self.c1r = prob.c1[model.rows]
-        self.cvr = [c[model.rows] for c in prob.cv]
 
     def matvec(self, x: np.ndarray) -> np.ndarray:
         """Z[rows] @ x for a full current vector x [N]."""
+        from ._compiled import kernel_products
+
         m = self.model
         g = m.grid
         pts, w = m.points
-        alpha = self.c1t @ x  # J = alpha rho + beta on each triangle; div J = 2 alpha
-        beta = np.stack([-(self.cvt[0] @ x), -(self.cvt[1] @ x)], axis=-1)
-        jx = w * (alpha[:, None] * pts[..., 0] + beta[:, None, 0])
-        jy = w * (alpha[:, None] * pts[..., 1] + beta[:, None, 1])
-        qc = w * (2 * alpha[:, None])
+        coefficients, testing = m.testing
+        alpha, bx, by = (coefficients @ x).reshape(3, -1)
+        vals = np.empty(pts.shape[:2] + (3,), complex)  # [T, 3 points, Jx Jy charge], the grid's source columns
+        vals[..., 0] = w * (alpha[:, None] * pts[..., 0] + bx[:, None])
+        vals[..., 1] = w * (alpha[:, None] * pts[..., 1] + by[:, None])
+        vals[..., 2] = w * (2 * alpha[:, None])
         nl = len(g.levels)
-        src = np.empty((3, nl, g.nx, g.ny), complex)
-        for c, vals in enumerate((jx, jy, qc)):
-            src[c] = (m.project @ vals.ravel()).reshape(nl, g.nx, g.ny)
+        src = np.ascontiguousarray((m.project @ vals.reshape(-1, 3)).T).reshape(3, nl, g.nx, g.ny)
         f = m.spectrum(src)
         pot = np.empty_like(f)
-        kf = self.kernel_fft
-        for lo in range(nl):
-            pot[0, lo] = np.einsum("sxy,sxy->xy", kf[lo, :, 0], f[0])
-            pot[1, lo] = np.einsum("sxy,sxy->xy", kf[lo, :, 0], f[1])
-            pot[2, lo] = np.einsum("sxy,sxy->xy", kf[lo, :, 1], f[2])
-        pot = m.potentials(pot)
-        ax, ay, phi = ((m.project.T @ pot[c].ravel()).reshape(pts.shape[:2]) for c in range(3))
+        kernel_products(self.kernel_fft, f, pot)
+        pot = m.potentials(pot).reshape(3, -1)
+        ax, ay, phi = (m.project_t @ pot.T).T.reshape((3,) + pts.shape[:2])
         t0 = (w * (ax * pts[..., 0] + ay * pts[..., 1])).sum(axis=1)
         t1x, t1y = (w * ax).sum(axis=1), (w * ay).sum(axis=1)
         t2 = (w * phi).sum(axis=1)
-        y = self.c_a * (self.c1r @ t0 - self.cvr[0] @ t1x - self.cvr[1] @ t1y) + 2 * self.c_phi * (self.c1r @ t2)
+        y = testing @ np.concatenate([self.c_a * t0 + 2 * self.c_phi * t2, -self.c_a * t1x, -self.c_a * t1y])
         return y + self.pre @ x
 
 

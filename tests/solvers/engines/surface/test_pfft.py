@@ -194,6 +194,32 @@ def test_fast_operator_on_another_soil_is_that_soils_operator():
     assert abs(shared.near - fresh.near).max() <= 1e-12 * abs(fresh.near).max()
 
 
+def test_soils_in_one_pass_are_each_soil_alone(monkeypatch):
+    """The reflected near terms of several soils computed in one pass over the point pairs (their
+    tables on different rho steps: the wet soil's is finer at 97 MHz) are each soil's own, to the
+    last bit, and cutting the pairs into blocks changes nothing; a kept soil is handed over once."""
+    prob = _problem("soil")
+    model = pfft.build_fast_model(prob, None)
+    terms = pfft.FrequencyTerms(model, 97e6)
+    soils = [(3.5, 0.02), (5.0, 0.05), (2.5, 0.005)]
+    steps = {k.step for k in prob.reflected_kernels_many(97e6, soils, pfft.FAR_REACH_CELLS * model.grid.h)}
+    assert len(steps) > 1  # the padded tables are exercised
+    together = pfft.reflected_near(model, terms, soils)
+    assert all(any(v) for v in together)
+    monkeypatch.setattr(pfft, "REFLECTED_BLOCK", 100)  # many blocks
+    alone = []
+    for s in soils:
+        pfft._SOIL_NEAR.clear()
+        alone.append(pfft.reflected_near(model, terms, [s])[0])
+    for a, b in zip(together, alone):
+        assert np.array_equal(a, b)
+    pfft._SOIL_NEAR.clear()
+    pfft.reflected_near(model, terms, soils)
+    first = pfft.reflected_near(model, terms, [(5.0, 0.05)])[0]
+    assert np.array_equal(first, together[1]) and (5.0, 0.05) not in next(iter(pfft._SOIL_NEAR.values()))[1]
+    pfft._SOIL_NEAR.clear()
+
+
 def test_fast_solve_of_an_asymmetric_plane_gives_the_dense_beam():
     """A plane without mirror symmetry (an as-built variant: a corner moved, the antenna off
     centre) is solved as the whole model by both methods; they agree as on symmetric ones."""

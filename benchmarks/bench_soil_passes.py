@@ -1,0 +1,165 @@
+"""The soils' reflected near terms in one pass over the point pairs, in real arithmetic
+(``pfft.reflected_near``, ``SOILS_TOGETHER = True``), against the code of ``d67d437`` (one pass a
+soil, complex arithmetic: its compiled loop read from git and compiled here), in this one process
+on one design: first the terms alone (the five soils of the ``soil`` set at one frequency; also
+today's loop one soil a pass, to split the two changes), then with ``--candidate`` a whole search
+candidate (the five soils, in-process, beam cache off, the design's model warm and the Sommerfeld
+tables filled first), alternating.
+
+    .venv/bin/python benchmarks/bench_soil_passes.py [--design sawtooth-20-16] [--mesh 0.5]
+        [--repeat 3] [--candidate --freqs 55:97:4] [-o results/bench/bench_soil_passes.txt]
+
+Prints the fastest time each way and the ratios, whether the terms are equal, and with
+``--candidate`` the wall times, ratio, the largest rms gain difference above 10 deg and each soil's
+FoM both ways. Never fails on a time.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+SOILS = [(3.5, 0.02), (2.5, 0.005), (2.5, 0.05), (5.0, 0.005), (5.0, 0.05)]
+NOW = None  # today's pfft.reflected_moments, set in main
+BASELINE = "d67d437"
+
+
+def baseline_moments():
+    """``pfft.reflected_moments`` as it was at BASELINE: the loop of that commit, one soil a call."""
+    import bench_compiled_moments
+
+    from solvers.engines.surface.grid import Q3, Q7, quadrature_points
+
+    bench_compiled_moments.BASELINE = BASELINE
+    old = bench_compiled_moments.baseline_loops()
+
+    def reflected_moments(mesh, pairs, kernels, near):
+        pairs = np.ascontiguousarray(pairs, dtype=np.int64)
+        out_a = np.zeros((len(kernels), 6, len(pairs)), complex)
+        out_q = np.zeros((len(kernels), len(pairs)), complex)
+        for i, k in enumerate(kernels):
+            for rule, sign in (((Q7, 1.0), (Q3, -1.0)) if near else ((Q3, 1.0),)):
+                p, w = quadrature_points(mesh, rule)
+                old.reflected_rule_moments(p, w, p, w, pairs, k.zetas, np.ascontiguousarray(k.tables), k.step, sign,
+                                           out_a[i], out_q[i])
+        return out_a, out_q
+    return reflected_moments
+
+
+def use(mode: str, old) -> None:
+    """Set the code up as ``mode``: "baseline", "one a pass" (today's loop) or "now"."""
+    from solvers.engines.surface import pfft
+
+    pfft.reflected_moments = old if mode == "baseline" else NOW
+    pfft.SOILS_TOGETHER = mode == "now"
+
+
+def terms_alone(plane, mesh_m: float, freq_mhz: float, repeat: int, old) -> list[str]:
+    """The five soils' reflected near terms at one frequency, each way, interleaved."""
+    from groundplane.design import Design, Soil
+    from solvers.engines.surface import SurfaceSettings, pfft
+    from solvers.engines.surface.mesh import build_mesh
+
+    settings = SurfaceSettings(spacing=mesh_m)
+    prob = pfft.problem_of(build_mesh(Design(plane, Soil(*SOILS[0])), settings), "soil", settings.near_factor,
+                           SOILS[0])
+    model = pfft.fast_model(prob, True)
+    terms = pfft.frequency_terms(model, freq_mhz * 1e6)
+    prob.reflected_kernels_many(freq_mhz * 1e6, SOILS, pfft.FAR_REACH_CELLS * model.grid.h)  # tables outside the clock
+    modes = ("baseline", "one a pass", "now")
+    best = dict.fromkeys(modes, np.inf)
+    out = {}
+    for _ in range(repeat):
+        for mode in modes:
+            use(mode, old)
+            pfft._SOIL_NEAR.clear()
+            t0 = time.perf_counter()
+            out[mode] = pfft.reflected_near(model, terms, SOILS)
+            best[mode] = min(best[mode], time.perf_counter() - t0)
+    use("now", old)
+    pfft._SOIL_NEAR.clear()
+    equal = all(np.array_equal(a, b) for a, b in zip(out["now"], out["one a pass"]))
+    diff = max(float(np.abs(a - b).max() / np.abs(b).max()) for a, b in zip(out["now"], out["baseline"]))
+    return [f"reflected near terms of {len(SOILS)} soils at {freq_mhz:g} MHz ({len(model.pairs)} precorrection "
+            f"pairs, {len(model.near_pairs(True))} image near pairs, {prob.rwg.n} unknowns), fastest of {repeat}:",
+            f"  baseline (complex, one pass a soil) {best['baseline']:.3f} s; real arithmetic, one pass a soil "
+            f"{best['one a pass']:.3f} s ({best['baseline'] / best['one a pass']:.2f}x); real, one pass "
+            f"{best['now']:.3f} s ({best['baseline'] / best['now']:.2f}x)",
+            f"  terms: one pass {'equal to the last bit to' if equal else 'DIFFERENT from'} one a pass; largest "
+            f"relative difference from the baseline {diff:.1e}"]
+
+
+def candidate(plane, mesh_m: float, freqs, repeat: int, old) -> list[str]:
+    """A search candidate (five soils, in-process) both ways, alternating; beams compared."""
+    from bench_fastmath import fill_tables
+    from bench_surface import foms, rms_db
+
+    from groundplane.design import Design, Soil
+    from solvers.engines.surface import SurfaceSettings, SurfaceSolver
+
+    fill_tables(plane, mesh_m, freqs)
+    times: dict[bool, list[float]] = {False: [], True: []}
+    beams = {}
+    for _ in range(repeat):
+        for together in (False, True):
+            use("now" if together else "baseline", old)
+            solver = SurfaceSolver(SurfaceSettings(spacing=mesh_m), workers=0, use_cache=False)
+            solver.solve_many([Design(plane, Soil(*SOILS[0]))], freqs[:1])  # compiled, model built
+            t0 = time.perf_counter()
+            beams[together] = solver.solve_many([Design(plane, Soil(*s)) for s in SOILS], freqs)
+            times[together].append(time.perf_counter() - t0)
+    use("now", old)
+    t_old, t_new = min(times[False]), min(times[True])
+    lines = [f"candidate: {len(SOILS)} soils, {len(freqs)} frequencies, in-process, model warm, tables filled; "
+             f"baseline {' '.join(f'{t:.1f}' for t in times[False])} s, now "
+             f"{' '.join(f'{t:.1f}' for t in times[True])} s: {t_old / t_new:.2f}x (fastest of each)",
+             f"  largest rms gain difference above 10 deg: "
+             f"{max(float(np.max(rms_db(a, b))) for a, b in zip(beams[True], beams[False])):.1e} dB"]
+    for s, a, b in zip(SOILS, beams[False], beams[True]):
+        fa, fb = foms(a), foms(b)
+        lines.append(f"  soil {s}: FoM 2 h {fa[1]:.3f} -> {fb[1]:.3f} mK, every 1 deg {fa[0]:.3f} -> {fb[0]:.3f} mK")
+    return lines
+
+
+def main() -> None:
+    from threadpoolctl import threadpool_limits
+
+    from groundplane.options import parse_freqs
+    from groundplane.shapes import PRESETS, from_file
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--design", default="sawtooth-20-16")
+    ap.add_argument("--mesh", type=float, default=0.5)
+    ap.add_argument("--freq", type=float, default=76.0, help="MHz, for the terms alone")
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--candidate", action="store_true")
+    ap.add_argument("--freqs", default="55:97:4")
+    ap.add_argument("-o", "--out")
+    args = ap.parse_args()
+    threadpool_limits(1)  # as the solver's workers
+    plane = from_file(str(ROOT / args.design)) if args.design.endswith(".json") else PRESETS[args.design]
+    from solvers.engines.surface import pfft
+
+    global NOW
+    NOW = pfft.reflected_moments
+    old = baseline_moments()
+    lines = [f"{args.design} at {args.mesh:g} m; baseline: the code of {BASELINE} (one pass over the point pairs "
+             "a soil, complex arithmetic)"]
+    lines += terms_alone(plane, args.mesh, args.freq, args.repeat, old)
+    print("\n".join(lines), flush=True)
+    if args.candidate:
+        more = candidate(plane, args.mesh, parse_freqs(args.freqs), 2, old)
+        print("\n".join(more), flush=True)
+        lines += more
+    if args.out:
+        Path(args.out).write_text("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()
