@@ -112,16 +112,18 @@ def solve_both(prob, old, freqs) -> list[str]:
         mod.solve_fast(prob, freqs[0] * 1e6, symmetric=True)
     lines = []
     for f in freqs:
-        res = {}
-        for name, mod in (("baseline", old), ("now", pfft)):
-            mod._TERMS.clear()
-            mod._LU.clear()
-            pfft._TERMS.clear()
-            t0 = time.perf_counter()
-            sol, stats = mod.solve_fast(prob, f * 1e6, symmetric=True)
-            res[name] = (time.perf_counter() - t0, stats.iterations, sol.currents)
+        res: dict = {}
+        for _ in range(3):  # alternating; the fastest of each
+            for name, mod in (("baseline", old), ("now", pfft)):
+                mod._TERMS.clear()
+                mod._LU.clear()
+                pfft._TERMS.clear()
+                t0 = time.perf_counter()
+                sol, stats = mod.solve_fast(prob, f * 1e6, symmetric=True)
+                dt = time.perf_counter() - t0
+                res[name] = (min(dt, res.get(name, (np.inf,))[0]), stats.iterations, sol.currents)
         diff = float(np.abs(res["now"][2] - res["baseline"][2]).max() / np.abs(res["baseline"][2]).max())
-        lines.append(f"  solve at {f:g} MHz (terms, operator, LU, GMRES): baseline {res['baseline'][0]:.2f} s "
+        lines.append(f"  solve at {f:g} MHz (terms, operator, LU, GMRES; fastest of 3): baseline {res['baseline'][0]:.2f} s "
                      f"({res['baseline'][1]} iterations), now {res['now'][0]:.2f} s ({res['now'][1]}): "
                      f"{res['baseline'][0] / res['now'][0]:.2f}x; currents' largest relative difference {diff:.1e}")
     return lines

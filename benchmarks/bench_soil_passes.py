@@ -26,37 +26,39 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 SOILS = [(3.5, 0.02), (2.5, 0.005), (2.5, 0.05), (5.0, 0.005), (5.0, 0.05)]
-NOW = None  # today's pfft.reflected_moments, set in main
+NOW = None  # today's (pfft._stacked_tables, pfft._reflected_block), set in main
 BASELINE = "d67d437"
 
 
 def baseline_moments():
-    """``pfft.reflected_moments`` as it was at BASELINE: the loop of that commit, one soil a call."""
+    """``pfft``'s per-block moments as they were at BASELINE: the loop of that commit (complex
+    arithmetic), one soil a call; as (tables, block) functions for ``pfft._stacked_tables`` and
+    ``pfft._reflected_block``."""
     import bench_compiled_moments
-
-    from solvers.engines.surface.grid import Q3, Q7, quadrature_points
 
     bench_compiled_moments.BASELINE = BASELINE
     old = bench_compiled_moments.baseline_loops()
 
-    def reflected_moments(mesh, pairs, kernels, near):
+    def stacked(kernels):
+        return kernels
+
+    def block(rules, pairs, kernels):
         pairs = np.ascontiguousarray(pairs, dtype=np.int64)
         out_a = np.zeros((len(kernels), 6, len(pairs)), complex)
         out_q = np.zeros((len(kernels), len(pairs)), complex)
         for i, k in enumerate(kernels):
-            for rule, sign in (((Q7, 1.0), (Q3, -1.0)) if near else ((Q3, 1.0),)):
-                p, w = quadrature_points(mesh, rule)
+            for p, w, sign in rules:
                 old.reflected_rule_moments(p, w, p, w, pairs, k.zetas, np.ascontiguousarray(k.tables), k.step, sign,
                                            out_a[i], out_q[i])
         return out_a, out_q
-    return reflected_moments
+    return stacked, block
 
 
 def use(mode: str, old) -> None:
     """Set the code up as ``mode``: "baseline", "one a pass" (today's loop) or "now"."""
     from solvers.engines.surface import pfft
 
-    pfft.reflected_moments = old if mode == "baseline" else NOW
+    pfft._stacked_tables, pfft._reflected_block = old if mode == "baseline" else NOW
     pfft.SOILS_TOGETHER = mode == "now"
 
 
@@ -147,7 +149,7 @@ def main() -> None:
     from solvers.engines.surface import pfft
 
     global NOW
-    NOW = pfft.reflected_moments
+    NOW = (pfft._stacked_tables, pfft._reflected_block)
     old = baseline_moments()
     lines = [f"{args.design} at {args.mesh:g} m; baseline: the code of {BASELINE} (one pass over the point pairs "
              "a soil, complex arithmetic)"]

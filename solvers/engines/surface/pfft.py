@@ -387,8 +387,16 @@ def reflected_moments(mesh, pairs: np.ndarray, kernels: list, near: bool) -> tup
     height sums) over triangle pairs: (six moments of S(R_TE) [S, 6, P], S0 of S(R_q - K_q) [S, P])
     by the fill's 3 x 3 points, or (``near``) the near pairs' correction, 7 x 7 minus 3 x 3
     (``operators.reflected_near``'s); every soil in one pass over the point pairs."""
-    from ._compiled import reflected_rule_moments
+    return _reflected_block(_rule_points(mesh, near), pairs, _stacked_tables(kernels))
 
+
+def _rule_points(mesh, near: bool) -> list:
+    """(points, weights, sign) of each rule of :func:`reflected_moments`."""
+    return [(*quadrature_points(mesh, rule), sign) for rule, sign in (((Q7, 1.0), (Q3, -1.0)) if near else ((Q3, 1.0),))]
+
+
+def _stacked_tables(kernels: list) -> tuple:
+    """The soils' tables as the compiled loop reads them: (height sums, [n_zeta, n, S, 4] real, steps, sizes)."""
     zetas = kernels[0].zetas
     if any(not np.array_equal(k.zetas, zetas) for k in kernels):
         raise ValueError("reflected_moments: the soils' tables are for different height sums")
@@ -396,14 +404,18 @@ def reflected_moments(mesh, pairs: np.ndarray, kernels: list, near: bool) -> tup
     tables = np.zeros((len(zetas), int(sizes.max()), len(kernels), 2), complex)  # padded: steps differ by soil
     for i, k in enumerate(kernels):
         tables[:, :sizes[i], i, :] = k.tables.transpose(0, 2, 1)
-    tables = tables.view(float)  # [n_zeta, n, S, 4]: Re, Im of each kernel
-    steps = np.array([k.step for k in kernels])
-    out_a = np.zeros((len(kernels), 6, len(pairs)), complex)
-    out_q = np.zeros((len(kernels), len(pairs)), complex)
+    return zetas, tables.view(float), np.array([k.step for k in kernels]), sizes  # Re, Im of each kernel
+
+
+def _reflected_block(rules: list, pairs: np.ndarray, stacked: tuple) -> tuple[np.ndarray, np.ndarray]:
+    from ._compiled import reflected_rule_moments
+
+    n_soils = len(stacked[2])
+    out_a = np.zeros((n_soils, 6, len(pairs)), complex)
+    out_q = np.zeros((n_soils, len(pairs)), complex)
     pairs = np.ascontiguousarray(pairs, dtype=np.int64)
-    for rule, sign in (((Q7, 1.0), (Q3, -1.0)) if near else ((Q3, 1.0),)):
-        p, w = quadrature_points(mesh, rule)
-        reflected_rule_moments(p, w, p, w, pairs, zetas, tables, steps, sizes, sign, out_a, out_q)
+    for p, w, sign in rules:
+        reflected_rule_moments(p, w, p, w, pairs, *stacked, sign, out_a, out_q)
     return out_a, out_q
 
 
@@ -431,12 +443,14 @@ def reflected_near(model: FastModel, terms: "FrequencyTerms", soils: list[tuple[
         kernels = prob.reflected_kernels_many(terms.freq_hz, todo, FAR_REACH_CELLS * model.grid.h)
         asm, c_q = model.assembly(), 4 * terms.c_phi
         passes = [list(range(len(todo)))] if SOILS_TOGETHER else [[i] for i in range(len(todo))]
+        stacked = [_stacked_tables([kernels[i] for i in group]) for group in passes]
         values = [np.zeros(asm.nnz, complex) for _ in todo]
         for which, pairs, near in ((0, model.pairs, False), (2, model.near_pairs(True), True)):
+            rules = _rule_points(prob.mesh, near)
             for start in range(0, len(pairs), REFLECTED_BLOCK):
                 block = pairs[start:start + REFLECTED_BLOCK]
-                for group in passes:
-                    ma, mq = reflected_moments(prob.mesh, block, [kernels[i] for i in group], near)
+                for group, tables in zip(passes, stacked):
+                    ma, mq = _reflected_block(rules, block, tables)
                     for i, a, q in zip(group, ma, mq):
                         asm.add(values[i], which, a, q, terms.c_a, c_q, start)
         kept.update(zip(todo, values))
