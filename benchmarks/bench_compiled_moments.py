@@ -83,8 +83,12 @@ def loops(plane, mesh_m: float, repeat: int, old) -> list[str]:
 
     def reflected_near(mod):
         out_a, out_q = np.zeros((6, len(near)), complex), np.zeros(len(near), complex)
-        for (p, ww), sign in (((p7, w7), 1.0), ((p3, w3), -1.0)):
-            mod.reflected_rule_moments(p, ww, p, ww, near, *soil_args, sign, out_a, out_q)
+        if mod is old:
+            for (p, ww), sign in (((p7, w7), 1.0), ((p3, w3), -1.0)):
+                mod.reflected_rule_moments(p, ww, p, ww, near, *soil_args, sign, out_a, out_q)
+        else:  # today's loop takes every soil's tables at once (one soil here)
+            (out_a,), (out_q,) = pfft._reflected_block(pfft._rule_points(prob.mesh, True), near,
+                                                        pfft._stacked_tables([kernels]))
         return np.vstack([out_a, out_q[None]])
 
     cases = {  # name: (baseline call, new call, the rows the solve uses)
@@ -112,31 +116,46 @@ def loops(plane, mesh_m: float, repeat: int, old) -> list[str]:
 
 
 def candidate(plane, mesh_m: float, freqs, old, repeat: int) -> list[str]:
+    from solvers.engines.surface import _compiled
+
+    new = {n: getattr(_compiled, n) for n in ("rule_moments", "reflected_rule_moments", "grid_pair_moments")}
+    def old_reflected(po, wo, ps, ws, pairs, zetas, tables, steps, sizes, sign, out_a, out_q):
+        """The baseline's one-soil loop behind today's signature (every soil's tables at once)."""
+        for k in range(tables.shape[2]):
+            one = np.ascontiguousarray(tables[:, :sizes[k], k, :].view(complex).transpose(0, 2, 1))  # [n_zeta, 2, n]
+            old.reflected_rule_moments(po, wo, ps, ws, pairs, zetas, one, steps[k], sign, out_a[k], out_q[k])
+    base = {"rule_moments": old.rule_moments, "reflected_rule_moments": old_reflected,
+            "grid_pair_moments": lambda *a: old.grid_pair_moments(*a[:-1])}  # no n_full: every moment
+
+    def loops(fns):
+        return lambda: [setattr(_compiled, n, f) for n, f in fns.items()]
+    return compare_candidates(plane, mesh_m, freqs, loops(base), loops(new), repeat)
+
+
+def compare_candidates(plane, mesh_m: float, freqs, baseline, now, repeat: int) -> list[str]:
+    """A search candidate (the five soils, in-process, beam cache off, the model warm, the Sommerfeld
+    tables filled first) with the code set up by ``baseline()`` and by ``now()``, alternating; left as
+    ``now``. Lines: wall times and their ratio, the largest rms gain difference, each soil's FoMs."""
     from bench_fastmath import fill_tables
     from bench_surface import foms, rms_db
 
     from groundplane.design import Design, Soil
-    from solvers.engines.surface import SurfaceSettings, SurfaceSolver, _compiled
+    from solvers.engines.surface import SurfaceSettings, SurfaceSolver
 
-    new = {n: getattr(_compiled, n) for n in ("rule_moments", "reflected_rule_moments", "grid_pair_moments")}
-    base = {"rule_moments": old.rule_moments, "reflected_rule_moments": old.reflected_rule_moments,
-            "grid_pair_moments": lambda *a: old.grid_pair_moments(*a[:-1])}  # no n_full: every moment
     fill_tables(plane, mesh_m, freqs)
     times: dict[str, list[float]] = {"baseline": [], "now": []}
     beams = {}
     for _ in range(repeat):
-        for name, fns in (("baseline", base), ("now", new)):
-            for n, f in fns.items():
-                setattr(_compiled, n, f)
+        for name, setup in (("baseline", baseline), ("now", now)):
+            setup()
             solver = SurfaceSolver(SurfaceSettings(spacing=mesh_m), workers=0, use_cache=False)
             solver.solve_many([Design(plane, Soil(*SOILS[0]))], freqs[:1])  # compiled, model built
             t0 = time.perf_counter()
             beams[name] = solver.solve_many([Design(plane, Soil(*s)) for s in SOILS], freqs)
             times[name].append(time.perf_counter() - t0)
-    for n, f in new.items():
-        setattr(_compiled, n, f)
+    now()
     t_old, t_new = min(times["baseline"]), min(times["now"])
-    lines = [f"candidate: 5 soils, {len(freqs)} frequencies, in-process, model warm, tables filled; "
+    lines = [f"candidate: {len(SOILS)} soils, {len(freqs)} frequencies, in-process, model warm, tables filled; "
              f"baseline {' '.join(f'{t:.1f}' for t in times['baseline'])} s, now "
              f"{' '.join(f'{t:.1f}' for t in times['now'])} s: {t_old / t_new:.2f}x (fastest of each)",
              f"  largest rms gain difference above 10 deg: "

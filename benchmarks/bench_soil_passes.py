@@ -99,34 +99,9 @@ def terms_alone(plane, mesh_m: float, freq_mhz: float, repeat: int, old) -> list
 
 def candidate(plane, mesh_m: float, freqs, repeat: int, old) -> list[str]:
     """A search candidate (five soils, in-process) both ways, alternating; beams compared."""
-    from bench_fastmath import fill_tables
-    from bench_surface import foms, rms_db
+    from bench_compiled_moments import compare_candidates
 
-    from groundplane.design import Design, Soil
-    from solvers.engines.surface import SurfaceSettings, SurfaceSolver
-
-    fill_tables(plane, mesh_m, freqs)
-    times: dict[bool, list[float]] = {False: [], True: []}
-    beams = {}
-    for _ in range(repeat):
-        for together in (False, True):
-            use("now" if together else "baseline", old)
-            solver = SurfaceSolver(SurfaceSettings(spacing=mesh_m), workers=0, use_cache=False)
-            solver.solve_many([Design(plane, Soil(*SOILS[0]))], freqs[:1])  # compiled, model built
-            t0 = time.perf_counter()
-            beams[together] = solver.solve_many([Design(plane, Soil(*s)) for s in SOILS], freqs)
-            times[together].append(time.perf_counter() - t0)
-    use("now", old)
-    t_old, t_new = min(times[False]), min(times[True])
-    lines = [f"candidate: {len(SOILS)} soils, {len(freqs)} frequencies, in-process, model warm, tables filled; "
-             f"baseline {' '.join(f'{t:.1f}' for t in times[False])} s, now "
-             f"{' '.join(f'{t:.1f}' for t in times[True])} s: {t_old / t_new:.2f}x (fastest of each)",
-             f"  largest rms gain difference above 10 deg: "
-             f"{max(float(np.max(rms_db(a, b))) for a, b in zip(beams[True], beams[False])):.1e} dB"]
-    for s, a, b in zip(SOILS, beams[False], beams[True]):
-        fa, fb = foms(a), foms(b)
-        lines.append(f"  soil {s}: FoM 2 h {fa[1]:.3f} -> {fb[1]:.3f} mK, every 1 deg {fa[0]:.3f} -> {fb[0]:.3f} mK")
-    return lines
+    return compare_candidates(plane, mesh_m, freqs, lambda: use("baseline", old), lambda: use("now", old), repeat)
 
 
 def main() -> None:

@@ -382,16 +382,9 @@ def rule_moments(mesh, pairs: np.ndarray, k: float, rule, direct: bool = True, i
     return compiled(p, w, p, w, np.ascontiguousarray(pairs, dtype=np.int64), k, direct, image)
 
 
-def reflected_moments(mesh, pairs: np.ndarray, kernels: list, near: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Each soil's reflected kernels (``kernels``: one ``ReflectedKernels`` a soil, on the mesh's
-    height sums) over triangle pairs: (six moments of S(R_TE) [S, 6, P], S0 of S(R_q - K_q) [S, P])
-    by the fill's 3 x 3 points, or (``near``) the near pairs' correction, 7 x 7 minus 3 x 3
-    (``operators.reflected_near``'s); every soil in one pass over the point pairs."""
-    return _reflected_block(_rule_points(mesh, near), pairs, _stacked_tables(kernels))
-
-
 def _rule_points(mesh, near: bool) -> list:
-    """(points, weights, sign) of each rule of :func:`reflected_moments`."""
+    """(points, weights, sign) of each rule of the soil's reflected terms: the fill's 3 x 3 points, or
+    (``near``) the near pairs' correction, 7 x 7 minus 3 x 3 (``operators.reflected_near``'s)."""
     return [(*quadrature_points(mesh, rule), sign) for rule, sign in (((Q7, 1.0), (Q3, -1.0)) if near else ((Q3, 1.0),))]
 
 
@@ -399,7 +392,7 @@ def _stacked_tables(kernels: list) -> tuple:
     """The soils' tables as the compiled loop reads them: (height sums, [n_zeta, n, S, 4] real, steps, sizes)."""
     zetas = kernels[0].zetas
     if any(not np.array_equal(k.zetas, zetas) for k in kernels):
-        raise ValueError("reflected_moments: the soils' tables are for different height sums")
+        raise ValueError("reflected_near: the soils' tables are for different height sums")
     sizes = np.array([k.tables.shape[2] for k in kernels], np.int64)
     tables = np.zeros((len(zetas), int(sizes.max()), len(kernels), 2), complex)  # padded: steps differ by soil
     for i, k in enumerate(kernels):
@@ -408,6 +401,8 @@ def _stacked_tables(kernels: list) -> tuple:
 
 
 def _reflected_block(rules: list, pairs: np.ndarray, stacked: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """Each soil's reflected kernels over triangle pairs, every soil in one pass over the point pairs:
+    (six moments of S(R_TE) [S, 6, P], S0 of S(R_q - K_q) [S, P])."""
     from ._compiled import reflected_rule_moments
 
     n_soils = len(stacked[2])
