@@ -28,6 +28,7 @@ from .workers import (
     core_capped,
     discard_shared_pool,
     process_pool,
+    refuse_while_spawning,
     shared_pool,
     terminate_pool,
     unguarded_main_script,
@@ -280,6 +281,7 @@ class Solver(ABC):
         """The design's beam at ``freqs_mhz`` (from the cache when it is there)."""
         from .cache import BeamCache
 
+        refuse_while_spawning()
         freqs = _freqs(freqs_mhz)
         solved = self._to_solve(freqs)  # a fill outside what was validated is refused before anything is built
         cache = BeamCache() if self.use_cache else None
@@ -308,6 +310,7 @@ class Solver(ABC):
         one by one. The same beams (and cache entries) as :meth:`solve` of each."""
         from .cache import BeamCache
 
+        refuse_while_spawning()
         freqs = _freqs(freqs_mhz)
         self._to_solve(freqs)  # refused here, not after the first design's build
         cache = BeamCache() if self.use_cache else None

@@ -89,6 +89,19 @@ def unguarded_main_script() -> str | None:
             "the script again; put the solve under that block, or use workers=0")
 
 
+def refuse_while_spawning() -> None:
+    """Refuse a solve started by a worker process while it is spawned (it imports the user's script
+    again, which solves again): it would wait forever on the parent's cache lock of the same beam,
+    where Python's own check refuses only later, at the pool's start. Refused, the worker dies and
+    the parent says why (:func:`unguarded_main_script`). ``_inheriting`` is multiprocessing's flag
+    for that phase (its ``spawn._check_not_importing_main`` reads the same)."""
+    from multiprocessing import process
+
+    if getattr(process.current_process(), "_inheriting", False):
+        raise RuntimeError("a solve was started while this worker process was being spawned: "
+                           + (unguarded_main_script() or "put the script's work under `if __name__ == \"__main__\":`"))
+
+
 def core_capped(workers: int) -> int:
     """Processes that run at once for ``workers`` asked: at least one, at most the cores."""
     return max(1, min(workers, os.cpu_count() or 1))

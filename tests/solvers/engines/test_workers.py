@@ -295,6 +295,28 @@ def test_a_script_without_a_main_block_is_named_when_its_workers_die(tmp_path, m
     assert unguarded_main_script() is None
 
 
+def test_a_script_without_a_main_block_fails_with_the_cause_instead_of_waiting_forever(tmp_path):
+    """Run as a new user would, a real script: each spawned worker imports it again and its solve
+    asked for the beam the parent holds the cache lock of, so it waited for the parent, which waited
+    for its workers: a silent hang. The worker now refuses at once and the parent names the cause."""
+    script = tmp_path / "survey.py"
+    script.write_text(textwrap.dedent(f"""
+        import sys
+        sys.path.insert(0, {str(ROOT)!r})
+        import groundplane as gp
+        beam = gp.solve("square-10", freqs="55:97:21", mesh=2.0, blade_cells=(4, 4), workers=2)
+        print("solved")
+    """))
+    env = {**os.environ, "GROUNDPLANE_CACHE": str(tmp_path / "cache")}
+    try:
+        done = subprocess.run([sys.executable, str(script)], cwd=tmp_path, env=env, capture_output=True, text=True,
+                              timeout=240)
+    except subprocess.TimeoutExpired:
+        pytest.fail("a script without a main block hung instead of failing")
+    assert done.returncode != 0 and "solved" not in done.stdout
+    assert "survey.py has no `if __name__" in done.stderr.splitlines()[-1]
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="POSIX signals")
 def test_a_kept_worker_killed_between_solves_costs_nothing(tmp_path, capsys):
     """The OOM killer (or a user) may kill an idle kept worker: the next solve starts a new pool
