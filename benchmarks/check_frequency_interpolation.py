@@ -5,7 +5,11 @@ interpolated beam's gain (dB rms above 10 deg elevation, worst frequency) and LS
 (default settings) with the solved beam's on the same frequencies.
 
     .venv/bin/python benchmarks/check_frequency_interpolation.py [BEAM.npz ...] [--steps 2 3]
-        [-o results/bench/frequency_interpolation.txt]
+        [--reference SOLVED.npz] [-o results/bench/frequency_interpolation.txt]
+
+With ``--reference`` (the same design on another soil, solved at every frequency) each beam is
+filled as the reference times a spline of their ratio (ln G - ln G_ref): would a scenario set's
+other soils need only every n-th frequency solved, the first soil carrying the rest?
 
 Default beam: ``examples/lowband_square10_nec.npz`` (NEC-2, 40-100 MHz every 1 MHz). Prints
 numbers only; the verdict line is a condition on them (the issue's bar: FoM within 0.5 %).
@@ -25,15 +29,17 @@ sys.path.insert(0, str(ROOT))
 FOM_TOLERANCE = 0.005  # the issue's bar for any speed-up
 
 
-def interpolated(beam, step: int):
-    """The beam with every frequency but each ``step``-th replaced by a cubic spline of ln G."""
+def interpolated(beam, step: int, reference=None):
+    """The beam with every frequency but each ``step``-th replaced by a cubic spline of ln G (with a
+    ``reference`` beam on the same frequencies and grid: of ln G - ln G_ref, times G_ref)."""
     from scipy.interpolate import CubicSpline
 
     keep = np.arange(0, len(beam.freqs_mhz), step)
     if keep[-1] != len(beam.freqs_mhz) - 1:
         keep = np.append(keep, len(beam.freqs_mhz) - 1)  # never extrapolate
-    ln_g = np.log(np.maximum(beam.gain, 1e-30))
-    est = CubicSpline(beam.freqs_mhz[keep], ln_g[keep], axis=0)(beam.freqs_mhz)
+    ln_ref = 0.0 if reference is None else np.log(np.maximum(reference.gain, 1e-30))
+    ln_g = np.log(np.maximum(beam.gain, 1e-30)) - ln_ref
+    est = CubicSpline(beam.freqs_mhz[keep], ln_g[keep], axis=0)(beam.freqs_mhz) + ln_ref
     return dataclasses.replace(beam, gain=np.exp(est)), len(keep)
 
 
@@ -44,8 +50,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("beams", nargs="*", default=[str(ROOT / "examples" / "lowband_square10_nec.npz")])
     ap.add_argument("--steps", type=int, nargs="+", default=[2, 3])
+    ap.add_argument("--reference", help="fill the ratio to this beam (another soil, every frequency solved)")
     ap.add_argument("-o", "--out")
     args = ap.parse_args()
+    reference = Beam.load(args.reference) if args.reference else None
     settings = {"2 h bins": FomSettings(), "every LST": FomSettings(lst_bin_hours=0.0)}
     lines, worst = [], 0.0
     for path in args.beams:
@@ -54,7 +62,7 @@ def main() -> None:
         lines.append(f"{Path(path).name}: {len(beam.freqs_mhz)} frequencies {beam.freqs_mhz[0]:g}-{beam.freqs_mhz[-1]:g} "
                      "MHz, FoM " + ", ".join(f"{v:.2f} mK ({k})" for k, v in fom.items()))
         for step in args.steps:
-            est, n = interpolated(beam, step)
+            est, n = interpolated(beam, step, reference)
             up = beam.theta_deg <= 80
             d_db = 10 * np.log10(est.gain[:, up] / beam.gain[:, up])
             rms = np.sqrt((d_db ** 2).reshape(len(beam.freqs_mhz), -1).mean(axis=1)).max()
