@@ -29,6 +29,14 @@ def nec_toml(answer: Path, budget: str, reference: str, toml: Path, out: Path) -
     return "\n".join(lines) + "\n"
 
 
+def _checked_params(results: Path) -> list | None:
+    """The parameters of every design a finished check scored (its results.json rows), or None."""
+    try:
+        return [row.get("params") for row in json.loads(results.read_text())]
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
 def main() -> int:
     """Run the checks still missing for one budget's answer."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -46,6 +54,14 @@ def main() -> int:
     toml, nec_out = folder / f"nec_check_{args.budget}.toml", folder / f"nec_check_{args.budget}"
     shape = json.loads(answer.read_text()).get("shape", "design")
     field_out = folder / "field" / f"{shape}-{args.budget}"
+    params = json.loads(answer.read_text())
+    stale = [str(d) for d, said in ((nec_out, _checked_params(nec_out / "results.json")),
+                                    (field_out, _checked_params(field_out / "results.json")))
+             if said is not None and {k: v for k, v in params.items() if k != "shape"} not in said]
+    if stale:  # an answer that moved (a resumed search) must not keep the checks of the one before
+        print(f"check_answer: {', '.join(stale)} checked another design than {answer}; remove them to check this one",
+              file=sys.stderr)
+        return 2
     steps = []
     if not (nec_out / "results.json").exists():
         steps.append((gp + ["sweep", str(toml), "-o", str(nec_out)], toml))
