@@ -13,7 +13,6 @@ each soil's FoM both ways). Never fails on a time.
 """
 from __future__ import annotations
 
-import argparse
 import importlib.util
 import subprocess
 import sys
@@ -167,21 +166,14 @@ def compare_candidates(plane, mesh_m: float, freqs, baseline, now, repeat: int) 
 
 
 def main() -> None:
-    from threadpoolctl import threadpool_limits
+    from bench_surface import one_design_args
 
     from groundplane.options import parse_freqs
-    from groundplane.shapes import PRESETS, from_file
 
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--design", default="results/robust_front/answer-600.json")
-    ap.add_argument("--mesh", type=float, default=0.7)
-    ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--candidate", action="store_true")
-    ap.add_argument("--freqs", default="55:97:4")
-    ap.add_argument("-o", "--out")
-    args = ap.parse_args()
-    threadpool_limits(1)  # as the solver's workers
-    plane = from_file(str(ROOT / args.design)) if args.design.endswith(".json") else PRESETS[args.design]
+    def options(ap):
+        ap.add_argument("--candidate", action="store_true")
+        ap.add_argument("--freqs", default="55:97:4")
+    args, plane = one_design_args(__doc__, "results/robust_front/answer-600.json", 0.7, 3, options)
     old = baseline_loops()
     lines = [f"{args.design} at {args.mesh:g} m; baseline: the loops of {BASELINE}"]
     lines += loops(plane, args.mesh, args.repeat, old)

@@ -12,7 +12,6 @@ difference). Never fails on a time.
 """
 from __future__ import annotations
 
-import argparse
 import importlib.util
 import subprocess
 import sys
@@ -24,6 +23,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
 BASELINE = "d67d437"
 SOIL = (3.5, 0.02)
 
@@ -49,25 +49,18 @@ def baseline_pfft():
 
 
 def main() -> None:
-    from threadpoolctl import threadpool_limits
+    from bench_surface import one_design_args
 
     from groundplane.design import Design, Soil
     from groundplane.options import parse_freqs
-    from groundplane.shapes import PRESETS, from_file
     from solvers.engines.surface import SurfaceSettings, pfft
     from solvers.engines.surface.mesh import build_mesh
 
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--design", default="sawtooth-20-16")
-    ap.add_argument("--mesh", type=float, default=0.5)
-    ap.add_argument("--freq", type=float, default=76.0, help="MHz, for the matvecs")
-    ap.add_argument("--repeat", type=int, default=30)
-    ap.add_argument("--solve", action="store_true")
-    ap.add_argument("--freqs", default="55:97:14")
-    ap.add_argument("-o", "--out")
-    args = ap.parse_args()
-    threadpool_limits(1)
-    plane = from_file(str(ROOT / args.design)) if args.design.endswith(".json") else PRESETS[args.design]
+    def options(ap):
+        ap.add_argument("--freq", type=float, default=76.0, help="MHz, for the matvecs")
+        ap.add_argument("--solve", action="store_true")
+        ap.add_argument("--freqs", default="55:97:14")
+    args, plane = one_design_args(__doc__, "sawtooth-20-16", 0.5, 30, options)
     old = baseline_pfft()
     settings = SurfaceSettings(spacing=args.mesh)
     prob = pfft.problem_of(build_mesh(Design(plane, Soil(*SOIL)), settings), "soil", settings.near_factor, SOIL)

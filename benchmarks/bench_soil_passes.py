@@ -15,7 +15,6 @@ FoM both ways. Never fails on a time.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
@@ -105,22 +104,15 @@ def candidate(plane, mesh_m: float, freqs, repeat: int, old) -> list[str]:
 
 
 def main() -> None:
-    from threadpoolctl import threadpool_limits
+    from bench_surface import one_design_args
 
     from groundplane.options import parse_freqs
-    from groundplane.shapes import PRESETS, from_file
 
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--design", default="sawtooth-20-16")
-    ap.add_argument("--mesh", type=float, default=0.5)
-    ap.add_argument("--freq", type=float, default=76.0, help="MHz, for the terms alone")
-    ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--candidate", action="store_true")
-    ap.add_argument("--freqs", default="55:97:4")
-    ap.add_argument("-o", "--out")
-    args = ap.parse_args()
-    threadpool_limits(1)  # as the solver's workers
-    plane = from_file(str(ROOT / args.design)) if args.design.endswith(".json") else PRESETS[args.design]
+    def options(ap):
+        ap.add_argument("--freq", type=float, default=76.0, help="MHz, for the terms alone")
+        ap.add_argument("--candidate", action="store_true")
+        ap.add_argument("--freqs", default="55:97:4")
+    args, plane = one_design_args(__doc__, "sawtooth-20-16", 0.5, 3, options)
     from solvers.engines.surface import pfft
 
     global NOW

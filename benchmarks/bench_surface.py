@@ -39,6 +39,27 @@ BASELINE_REV = "2af09dd"  # main before the shared-terms fast solve (2026-12-02)
 SOILS = [(3.5, 0.02), (2.5, 0.005), (2.5, 0.05), (5.0, 0.005), (5.0, 0.05)]
 
 
+def one_design_args(doc: str, design: str, mesh: float, repeat: int, add=None) -> tuple[argparse.Namespace, object]:
+    """The command line every one-design, in-process benchmark takes (--design: a preset or a design
+    file under the checkout, --mesh, --repeat, --freqs, -o, and what ``add(parser)`` adds), parsed, and
+    the design's plane; BLAS held to one thread, as in the solver's workers."""
+    from threadpoolctl import threadpool_limits
+
+    from groundplane.shapes import PRESETS, from_file
+
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--design", default=design)
+    ap.add_argument("--mesh", type=float, default=mesh)
+    ap.add_argument("--repeat", type=int, default=repeat)
+    ap.add_argument("-o", "--out")
+    if add is not None:
+        add(ap)
+    args = ap.parse_args()
+    threadpool_limits(1)
+    plane = from_file(str(ROOT / args.design)) if args.design.endswith(".json") else PRESETS[args.design]
+    return args, plane
+
+
 def child(spec: dict) -> None:
     """Run in a child process: solve ``spec``'s design(s) with the code on sys.path, write the
     beams and the timings."""
