@@ -170,10 +170,8 @@ def main() -> None:
 
     from groundplane.options import parse_freqs
 
-    def options(ap):
-        ap.add_argument("--candidate", action="store_true")
-        ap.add_argument("--freqs", default="55:97:4")
-    args, plane = one_design_args(__doc__, "results/robust_front/answer-600.json", 0.7, 3, options)
+    args, plane = one_design_args(__doc__, "results/robust_front/answer-600.json", 0.7, 3, "55:97:4",
+                                  flags={"--candidate": "also a whole search candidate, both ways"})
     old = baseline_loops()
     lines = [f"{args.design} at {args.mesh:g} m; baseline: the loops of {BASELINE}"]
     lines += loops(plane, args.mesh, args.repeat, old)

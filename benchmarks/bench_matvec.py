@@ -56,11 +56,8 @@ def main() -> None:
     from solvers.engines.surface import SurfaceSettings, pfft
     from solvers.engines.surface.mesh import build_mesh
 
-    def options(ap):
-        ap.add_argument("--freq", type=float, default=76.0, help="MHz, for the matvecs")
-        ap.add_argument("--solve", action="store_true")
-        ap.add_argument("--freqs", default="55:97:14")
-    args, plane = one_design_args(__doc__, "sawtooth-20-16", 0.5, 30, options)
+    args, plane = one_design_args(__doc__, "sawtooth-20-16", 0.5, 30, "55:97:14", "MHz, for the matvecs",
+                                  {"--solve": "also whole one-soil solves, both ways"})
     old = baseline_pfft()
     settings = SurfaceSettings(spacing=args.mesh)
     prob = pfft.problem_of(build_mesh(Design(plane, Soil(*SOIL)), settings), "soil", settings.near_factor, SOIL)

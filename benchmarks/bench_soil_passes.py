@@ -108,11 +108,8 @@ def main() -> None:
 
     from groundplane.options import parse_freqs
 
-    def options(ap):
-        ap.add_argument("--freq", type=float, default=76.0, help="MHz, for the terms alone")
-        ap.add_argument("--candidate", action="store_true")
-        ap.add_argument("--freqs", default="55:97:4")
-    args, plane = one_design_args(__doc__, "sawtooth-20-16", 0.5, 3, options)
+    args, plane = one_design_args(__doc__, "sawtooth-20-16", 0.5, 3, "55:97:4", "MHz, for the terms alone",
+                                  {"--candidate": "also a whole search candidate, both ways"})
     from solvers.engines.surface import pfft
 
     global NOW

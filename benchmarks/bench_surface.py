@@ -39,10 +39,12 @@ BASELINE_REV = "2af09dd"  # main before the shared-terms fast solve (2026-12-02)
 SOILS = [(3.5, 0.02), (2.5, 0.005), (2.5, 0.05), (5.0, 0.005), (5.0, 0.05)]
 
 
-def one_design_args(doc: str, design: str, mesh: float, repeat: int, add=None) -> tuple[argparse.Namespace, object]:
-    """The command line every one-design, in-process benchmark takes (--design: a preset or a design
-    file under the checkout, --mesh, --repeat, --freqs, -o, and what ``add(parser)`` adds), parsed, and
-    the design's plane; BLAS held to one thread, as in the solver's workers."""
+def one_design_args(doc: str, design: str, mesh: float, repeat: int, freqs: str, freq_help: str | None = None,
+                    flags: dict[str, str] | None = None) -> tuple[argparse.Namespace, object]:
+    """The command line every one-design, in-process benchmark takes, parsed, and the design's plane:
+    --design (a preset or a design file under the checkout), --mesh, --repeat, --freqs (a candidate's
+    frequencies), -o, with ``freq_help`` a --freq (MHz, 76 by default) and each of ``flags`` (name: help)
+    a switch. BLAS is held to one thread, as in the solver's workers."""
     from threadpoolctl import threadpool_limits
 
     from groundplane.shapes import PRESETS, from_file
@@ -51,9 +53,12 @@ def one_design_args(doc: str, design: str, mesh: float, repeat: int, add=None) -
     ap.add_argument("--design", default=design)
     ap.add_argument("--mesh", type=float, default=mesh)
     ap.add_argument("--repeat", type=int, default=repeat)
+    ap.add_argument("--freqs", default=freqs)
+    if freq_help:
+        ap.add_argument("--freq", type=float, default=76.0, help=freq_help)
+    for name, help in (flags or {}).items():
+        ap.add_argument(name, action="store_true", help=help)
     ap.add_argument("-o", "--out")
-    if add is not None:
-        add(ap)
     args = ap.parse_args()
     threadpool_limits(1)
     plane = from_file(str(ROOT / args.design)) if args.design.endswith(".json") else PRESETS[args.design]
