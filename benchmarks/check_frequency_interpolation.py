@@ -61,6 +61,10 @@ def main() -> None:
         fom = {k: figure_of_merit(beam, s).lst_averaged_mk for k, s in settings.items()}
         lines.append(f"{Path(path).name}: {len(beam.freqs_mhz)} frequencies {beam.freqs_mhz[0]:g}-{beam.freqs_mhz[-1]:g} "
                      "MHz, FoM " + ", ".join(f"{v:.2f} mK ({k})" for k, v in fom.items()))
+        if reference is not None and (not np.array_equal(reference.freqs_mhz, beam.freqs_mhz)
+                                      or reference.gain.shape != beam.gain.shape):
+            sys.exit(f"--reference {args.reference}: not on {Path(path).name}'s frequencies and directions "
+                     f"({reference.gain.shape} against {beam.gain.shape})")
         for step in args.steps:
             est, n = interpolated(beam, step, reference)
             up = beam.theta_deg <= 80

@@ -16,9 +16,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def nec_toml(answer: Path, budget: str, reference: str, toml: Path, out: Path) -> str:
+def nec_toml(answer: Path, params: dict, budget: str, reference: str, toml: Path, out: Path) -> str:
     """The sweep file of the NEC-2 check: the answer's parameters and the reference preset."""
-    params = json.loads(answer.read_text())
     lines = [f"# groundplane sweep {toml} -o {out}",
              f"# The {budget} m^2 robust answer ({answer.name}) and {reference} on the second engine: NEC-2's wire grid",
              "# at its default 0.5 m, MRO soil, the fit band at 1 MHz, FoM in 2 h LST bins.",
@@ -52,9 +51,8 @@ def main() -> int:
         return 2
     gp = [sys.executable, "-m", "groundplane"]
     toml, nec_out = folder / f"nec_check_{args.budget}.toml", folder / f"nec_check_{args.budget}"
-    shape = json.loads(answer.read_text()).get("shape", "design")
-    field_out = folder / "field" / f"{shape}-{args.budget}"
     params = json.loads(answer.read_text())
+    field_out = folder / "field" / f"{params.get('shape', 'design')}-{args.budget}"
     stale = [str(d) for d, said in ((nec_out, _checked_params(nec_out / "results.json")),
                                     (field_out, _checked_params(field_out / "results.json")))
              if said is not None and {k: v for k, v in params.items() if k != "shape"} not in said]
@@ -73,7 +71,7 @@ def main() -> int:
         if args.dry_run:
             continue
         if made == toml:
-            toml.write_text(nec_toml(answer, args.budget, args.reference, toml, nec_out))
+            toml.write_text(nec_toml(answer, params, args.budget, args.reference, toml, nec_out))
         else:
             field_out.mkdir(parents=True, exist_ok=True)
             (field_out / "design.json").write_text(answer.read_text())

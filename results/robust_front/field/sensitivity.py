@@ -32,20 +32,20 @@ def main() -> None:
     shown = here.relative_to(HERE.parents[2]) if here.is_relative_to(HERE.parents[2]) else here
     print(f"<!-- .venv/bin/python results/robust_front/field/sensitivity.py {shown} > {shown}/sensitivity.md -->")
     print("# The field set, design by design\n")
-    print(f"Each design's 18 `field` members (2 h bins; the level each was scored at in its row, the command in its "
+    print(f"Each design's `field` members (2 h bins; how many and the level each was scored at in its row, the command in its "
           f"folder's report.md). Per axis, the member that moves the FoM most from the MRO soil member; fragile "
           f"where that is more than {100 * FRAGILE:.0f} %.\n")
-    print("| design | level | metal (m^2) | MRO (mK) | worst member (mK) | mean (mK) | largest loss (%) | axis | largest "
+    print("| design | members | level | metal (m^2) | MRO (mK) | worst member (mK) | mean (mK) | largest loss (%) | axis | largest "
           "move (member) | its FoM (mK) | change | verdict |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for folder in sorted(p for p in here.iterdir() if (p / "results.json").exists()):
         row = json.loads((folder / "results.json").read_text())[0]
         sens = sensitivity(row)
         loss = row.get("max_loss")
-        head = (f"| {folder.name} | {level(folder)} | {row['metal_area_m2']:.1f} | {sens.nominal_mk:.1f} | "
+        head = (f"| {folder.name} | {len(row.get('per_member_mk') or [])} | {level(folder)} | {row['metal_area_m2']:.1f} | {sens.nominal_mk:.1f} | "
                 f"{row['worst_fom_mk']:.1f} | {row['mean_fom_mk']:.1f} | {'-' if loss is None else f'{100 * loss:.3f}'} |")
         for i, r in enumerate(sens.rows):
-            lead = head if i == 0 else "| | | | | | | |"
+            lead = head if i == 0 else "| | | | | | | | |"
             print(f"{lead} {r['axis']} | {r['member']} | {r['fom_mk']:.1f} | {100 * r['change']:+.1f} % | "
                   f"{'**fragile**' if r['fragile'] else 'not fragile'} |")
 
