@@ -5,7 +5,10 @@ then the folder's sensitivity table written again. Each step is the documented c
 its output is missing (the beam cache makes a rerun cheap anyway).
 
     .venv/bin/python results/robust_front_0.5m/check_answer.py 600 [--folder results/robust_front_0.5m]
-        [--reference sawtooth-20-16] [--dry-run]
+        [--reference sawtooth-20-16] [--workers 2] [--dry-run]
+
+It runs after a search, with the machine to itself: both checks use --workers processes (2, this machine's
+cores; 1 when a search runs beside them). Workers split the frequencies, never change a number.
 """
 import argparse
 import json
@@ -16,12 +19,12 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def nec_toml(answer: Path, params: dict, budget: str, reference: str, toml: Path, out: Path) -> str:
+def nec_toml(answer: Path, params: dict, budget: str, reference: str, toml: Path, out: Path, workers: int) -> str:
     """The sweep file of the NEC-2 check: the answer's parameters and the reference preset."""
     lines = [f"# groundplane sweep {toml} -o {out}",
              f"# The {budget} m^2 robust answer ({answer.name}) and {reference} on the second engine: NEC-2's wire grid",
              "# at its default 0.5 m, MRO soil, the fit band at 1 MHz, FoM in 2 h LST bins.",
-             "[solver]", 'engine = "nec"', "mesh = 0.5", 'freqs = "fit-band"', "workers = 1", "",
+             "[solver]", 'engine = "nec"', "mesh = 0.5", 'freqs = "fit-band"', f"workers = {workers}", "",
              "[[candidate]]", f'name = "{params.get("shape", "design")}-{budget} (the robust answer)"']
     lines += [f'{k} = "{v}"' if isinstance(v, str) else f"{k} = {v!r}" for k, v in params.items()]
     lines += ["", "[[candidate]]", f'preset = "{reference}"']
@@ -42,6 +45,7 @@ def main() -> int:
     ap.add_argument("budget")
     ap.add_argument("--folder", default="results/robust_front_0.5m")
     ap.add_argument("--reference", default="sawtooth-20-16")
+    ap.add_argument("--workers", type=int, default=2, help="solver processes for both checks (default 2)")
     ap.add_argument("--dry-run", action="store_true", help="print the commands, run nothing")
     args = ap.parse_args()
     folder = Path(args.folder)
@@ -65,13 +69,13 @@ def main() -> int:
         steps.append((gp + ["sweep", str(toml), "-o", str(nec_out)], toml))
     if not (field_out / "results.json").exists():
         steps.append((gp + ["score", "--design", str(field_out / "design.json"), "--scenarios", "field", "--mesh", "0.5",
-                            "--freqs", "55:97:3", "--workers", "1", "-o", str(field_out)], field_out))
+                            "--freqs", "55:97:3", "--workers", str(args.workers), "-o", str(field_out)], field_out))
     for command, made in steps:
         print(" ".join(command), flush=True)
         if args.dry_run:
             continue
         if made == toml:
-            toml.write_text(nec_toml(answer, params, args.budget, args.reference, toml, nec_out))
+            toml.write_text(nec_toml(answer, params, args.budget, args.reference, toml, nec_out, args.workers))
         else:
             field_out.mkdir(parents=True, exist_ok=True)
             (field_out / "design.json").write_text(answer.read_text())
