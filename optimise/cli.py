@@ -198,13 +198,14 @@ def _run_pareto(args: argparse.Namespace, seeds: dict | None = None) -> int:
     out = Path(args.out)
     opts = scenario_options(args)
     scenarios, constraints = opts.set(), opts.constraints()
+    from .scenarios import check_set, describe_set
+
+    check_set(scenarios, settings)  # a member the engine cannot take: refused before any solve
     front = pareto_front(args.shape, args.pareto, settings, confirm, out, budget=args.budget, answer_mesh=answer or None,
                          ladder=args.ladder, confirm_top=args.confirm_top, executor=args.executor,
                          scheduler=args.scheduler, scenarios=scenarios, constraints=constraints,
                          max_budget=args.max_budget, seeds=seeds, explore=args.explore,
                          build_tolerance=args.build_tolerance)
-    from .scenarios import describe_set
-
     path = write_report(front, out, invocation(), settings, confirm, objective=describe_set(scenarios, constraints),
                         reference=args.reference, beside=args.beside)
     print("\n".join(verdicts(front)))

@@ -363,9 +363,35 @@ def load_set(path: str | Path) -> ScenarioSet:
         raise ConfigError(f"{path}: {exc}") from None
 
 
+def check_not_overridden(scenarios: ScenarioSet, settings: EvalSettings) -> None:
+    """Refuse a soil or model setting that differs from its default where members of the set
+    override it: ``--eps-r 3 --scenarios soil`` scored no member at eps_r 3, and with ``field``
+    only the as-built members, whose moves are then read against MRO soil they were not solved
+    on. (A setting at its default cannot be told from one not given, and changes nothing.)"""
+    from groundplane.options import options
+
+    defaults = {o.key: (o.name, getattr(Soil(), o.name)) for o in options(Soil)}
+    model_defaults = type(settings.model)()
+    defaults.update({o.key: (o.name, getattr(model_defaults, o.name)) for o in options(type(settings.model))})
+    for key, (name, default) in defaults.items():
+        value = getattr(settings.soil if key in ("eps_r", "sigma") else settings.model, name)
+        setting = [m.name for m in scenarios.members if key in dict(m.overrides)]
+        if value == default or not setting:
+            continue
+        others = len(scenarios.members) - len(setting)
+        reach = "none of them" if not others else f"only the other {others}"
+        raise UserInputError(f"{key} = {value!r} (--{key.replace('_', '-')}): the scenario set '{scenarios.name}' sets "
+                             f"{key} itself on {len(setting)} of its {len(scenarios.members)} member(s) "
+                             f"({'; '.join(setting[:3])}{'; ...' if len(setting) > 3 else ''}), so the value "
+                             f"given would reach {reach}. Leave it out, or use a set whose members do not set it "
+                             f"(nominal, as-built, or a TOML file of members)")
+
+
 def check_set(scenarios: ScenarioSet, settings: EvalSettings, plane: GroundPlane | None = None) -> None:
     """Refuse, before any solve, members the engine cannot take (an unknown model field, a bad
-    value) or a plane they cannot build."""
+    value) or a plane they cannot build, and a soil or model setting given away from its default that
+    members set themselves (it would reach only the others, or none: a silent wrong answer)."""
+    check_not_overridden(scenarios, settings)
     for m in scenarios.members:
         m.settings(settings)
         if plane is not None and m.as_built is not None:

@@ -25,6 +25,7 @@ from ..scenarios import (
     NotApplicable,
     ScenarioSet,
     as_built,
+    check_not_overridden,
     missing_sheet,
     moved_corners,
     scenario_set,
@@ -52,6 +53,7 @@ def variants(plane: GroundPlane, settings: EvalSettings, draws: int = DEFAULT_DR
     """The nominal design and its as-built variants (seeded: a rerun gives the same ones), built
     by the scenario module's as-built rules; with ``scenarios``, that set's members instead."""
     if scenarios is not None:
+        check_not_overridden(scenarios, settings)  # --eps-r 3 with a set whose members set eps_r: refused
         out = []
         for m in scenarios.members:
             try:

@@ -63,6 +63,29 @@ def test_member_overrides_are_type_checked_and_refused_by_name():
         Member("neg", (("plate_height", -1.0),)).settings(EvalSettings())
 
 
+def test_a_setting_the_members_set_themselves_is_refused_not_ignored():
+    """--eps-r 3 --scenarios soil used to score no member at eps_r 3 and say nothing; with `field`
+    only the as-built members took it, their moves then read against MRO soil."""
+    from dataclasses import replace
+
+    from groundplane.design import Soil
+    from optimise.scenarios import check_set
+
+    wet = EvalSettings(soil=Soil(eps_r=3.0))
+    with pytest.raises(UserInputError, match=r"eps_r = 3.0 \(--eps-r\).*'soil'.*5 of its 5.*reach none of them"):
+        check_set(scenario_set("soil"), wet)
+    with pytest.raises(UserInputError, match=r"'field' sets eps_r itself on 9 of its 18.*only the other 9"):
+        check_set(scenario_set("field"), wet)
+    wide = EvalSettings(model=replace(EvalSettings().model, feed_width=1.0))
+    with pytest.raises(UserInputError, match=r"feed_width = 1.0 \(--feed-width\).*'model'"):
+        check_set(scenario_set("model"), wide)
+    # where no member sets it, the setting reaches every member: taken
+    check_set(scenario_set("soil"), wide)
+    check_set(scenario_set("nominal"), wet)
+    check_set(scenario_set("as-built"), wet)
+    check_set(scenario_set("soil"), EvalSettings(soil=Soil()))  # the default, as if not given
+
+
 def test_a_toml_set_is_read_and_its_mistakes_named(tmp_path):
     good = tmp_path / "wet.toml"
     good.write_text('name = "wet"\naggregate = "mean"\n[[member]]\nname = "wet"\neps_r = 5.0\nsigma = 0.05\n'
