@@ -392,13 +392,27 @@ def check_set(scenarios: ScenarioSet, settings: EvalSettings, plane: GroundPlane
     value) or a plane they cannot build, and a soil or model setting given away from its default that
     members set themselves (it would reach only the others, or none: a silent wrong answer)."""
     check_not_overridden(scenarios, settings)
+    skipped = []
     for m in scenarios.members:
         m.settings(settings)
         if plane is not None and m.as_built is not None:
             try:
                 m.plane(plane)
             except NotApplicable:
-                continue  # skipped, as the solve skips it (sawtooth-20-16's teeth fill its sides: no wider base)
+                skipped.append(m.name)  # skipped, as the solve skips it (sawtooth-20-16's teeth fill its sides)
+    problem = too_few_for_aggregate(scenarios, len(scenarios.members) - len(skipped), skipped)
+    if problem:
+        raise UserInputError(problem)
+
+
+def too_few_for_aggregate(scenarios: ScenarioSet, scored: int, skipped: list[str]) -> str | None:
+    """Why a design's scored members cannot make the set's worst-K (fewer than K once the
+    as-built variants it has no part for are skipped), or None: a mean of fewer would be
+    another aggregate than the one asked for, and rank designs unlike each other."""
+    if scenarios.aggregate in AGGREGATES or worst_k(scenarios.aggregate) <= scored:
+        return None
+    return (f"--aggregate {scenarios.aggregate}: this design has {scored} member(s) of the set '{scenarios.name}' "
+            f"to score ({len(skipped)} skipped: {'; '.join(skipped)}); choose K <= {scored}")
 
 
 # ------------------------------------------------------------------ constraints
@@ -551,8 +565,11 @@ def evaluate_scenarios(candidate: Candidate, settings: EvalSettings, scenarios: 
         members.append({"member": m.name, "axis": m.axis, "soil_only": m.soil_only, "as_built": note,
                         "metal_area_m2": c.plane.metal_area if c.plane is not None else None,
                         **{k: row.get(k) for k in MEMBER_FIELDS}})
-    row = scenario_row(candidate, scenarios, constraints, members, settings)
     skipped = [m.name for m in scenarios.members if m.name not in {r["member"] for r in members}]
+    problem = too_few_for_aggregate(scenarios, len(members), skipped)
+    if problem:
+        return failed_row(candidate, problem)
+    row = scenario_row(candidate, scenarios, constraints, members, settings)
     return {**row, **({"skipped_members": skipped} if skipped else {})}
 
 

@@ -118,6 +118,22 @@ def _member_fn(fom_of, loss_of):
     return fn
 
 
+def test_worst_k_of_more_members_than_a_design_scores_is_refused_not_averaged_over_fewer():
+    """A square skips the as-built set's two tooth-base members: worst-9 of its 8 was their mean."""
+    from optimise.scenarios import check_set
+
+    worst9 = scenario_set("as-built", "worst-9")
+    with pytest.raises(UserInputError, match=r"worst-9: this design has 8 member.*2 skipped: tooth bases.*K <= 8"):
+        check_set(worst9, EvalSettings(), Square(10.0))
+    check_set(worst9, EvalSettings(), preset("extended"))  # its teeth take every variant: 10 members
+    row = evaluate_scenarios(Candidate("sq", plane=Square(10.0)), EvalSettings(), worst9,
+                             member_fn=_member_fn(lambda p, s: 100.0, lambda p, s: 0.001))
+    assert row["status"] == "failed" and "K <= 8" in row["error"]
+    row = evaluate_scenarios(Candidate("sq", plane=Square(10.0)), EvalSettings(), scenario_set("as-built", "worst-8"),
+                             member_fn=_member_fn(lambda p, s: 100.0, lambda p, s: 0.001))
+    assert row["status"] == "ok" and row["skipped_members"] == ["tooth bases -0.2 m", "tooth bases +0.2 m"]
+
+
 def test_the_row_aggregates_members_and_reads_the_loss_on_soil_members_only():
     scen = ScenarioSet("mix", (Member("dry", (("eps_r", 2.5), ("sigma", 0.005))), Member("wet", (("sigma", 0.05),)),
                                Member("gap", (("plate_height", 0.01),))), "worst")
