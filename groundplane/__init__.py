@@ -6,7 +6,8 @@ API reference is ``docs/api``). From the core: :class:`Beam` (any solver's beam,
 :func:`fom` (the chromaticity Figure of Merit), :func:`compare`, :func:`export` (STEP/STL) and
 :func:`fabrication_plan`.
 Added by the higher layers (through entry points: the core never imports them): :func:`solve`
-(a plane's beam, by an engine), :func:`score` (a design on a scenario set), :func:`optimise` and
+(a plane's beam, by an engine), :func:`solve_soils` (one plane over several soils, solved
+together), :func:`score` (a design on a scenario set), :func:`optimise` and
 :func:`sweep`. Everything else is internal and may change::
 
     import groundplane as gp
@@ -25,10 +26,10 @@ from .shapes import from_file, preset
 
 __all__ = ["Beam", "BeamFormatError", "Design", "FomResult", "FomSettings", "FreeSpace", "GroundplaneError",
            "InfinitePEC", "Soil", "SolverError", "UserInputError", "compare", "export", "fabrication_plan", "fom", "from_file",
-           "optimise", "preset", "score", "shapes", "solve", "sweep"]
+           "optimise", "preset", "score", "shapes", "solve", "solve_soils", "sweep"]
 __version__ = "0.1.0"
 
-_HIGHER = ("solve", "score", "optimise", "sweep")
+_HIGHER = ("solve", "solve_soils", "score", "optimise", "sweep")
 
 
 def __getattr__(name: str) -> Any:

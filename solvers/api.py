@@ -2,7 +2,7 @@
 ``groundplane.api`` entry points: the core never imports this package)."""
 from __future__ import annotations
 
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 from groundplane.beam import Beam
 from groundplane.design import Design, FreeSpace, InfinitePEC, Soil
@@ -10,7 +10,7 @@ from groundplane.errors import ConfigError, UserInputError
 from groundplane.options import build, option_keys
 from groundplane.shapes import GroundPlane, preset
 
-__all__ = ["solve", "design_of", "solve_options_from_mapping"]
+__all__ = ["solve", "solve_soils", "design_of", "solve_options_from_mapping"]
 
 
 def solve_options_from_mapping(values: Mapping[str, Any], where: str) -> tuple[Soil, Any, Any]:
@@ -85,6 +85,52 @@ def solve(plane: GroundPlane | str | Design | None, *, ground: str = "soil", pro
     """
     soil, settings, model = solve_options_from_mapping(options, "solve(): ")
     return solve_with(design_of(plane, ground, soil), settings, model, progress=progress, cache=cache)
+
+
+def solve_soils(plane: GroundPlane | str, soils: Sequence[Soil | tuple[float, float]], *, progress: bool = False,
+                cache: bool = True, **options: Any) -> list[Beam]:
+    """The beams of one plane over several soils, in order: solved together, the model and each
+    frequency's direct and image terms shared (five soils cost ~2.3 single solves, not 5;
+    ``docs/speed.md``), each beam the one :func:`solve` gives and caches for that soil.
+
+    Parameters
+    ----------
+    plane
+        A shape or a preset's name.
+    soils
+        Each a :class:`~groundplane.design.Soil` or an ``(eps_r, sigma)`` pair (S/m).
+    progress, cache, **options
+        As :func:`solve` (any solver option but ``eps_r`` and ``sigma``, which ``soils`` gives).
+
+    Examples
+    --------
+    >>> import groundplane as gp
+    >>> dry, mro = gp.solve_soils("square-10", [(2.5, 0.005), (3.5, 0.02)], freqs="55:97:21", mesh=2.0,
+    ...                           blade_cells=(4, 4))  # doctest: +SKIP
+    >>> dry.freqs_mhz.tolist()  # doctest: +SKIP
+    [55.0, 76.0, 97.0]
+    """
+    given = sorted({"eps_r", "sigma"} & set(options))
+    if given:
+        raise UserInputError(f"solve_soils(): {' and '.join(given)} come from soils, not from a keyword")
+    if isinstance(soils, (str, bytes)) or not isinstance(soils, Sequence) or not soils:
+        raise UserInputError("solve_soils(): soils must be a non-empty list of Soil or (eps_r, sigma) pairs")
+    grounds = []
+    for i, soil in enumerate(soils):
+        if isinstance(soil, Soil):
+            grounds.append(soil)
+            continue
+        try:
+            eps_r, sigma = soil
+        except (TypeError, ValueError):
+            raise UserInputError(f"solve_soils(): soils[{i}] = {soil!r} is neither a Soil nor an (eps_r, sigma) "
+                                 "pair") from None
+        grounds.append(build(Soil, {"eps_r": eps_r, "sigma": sigma}, f"solve_soils(): soils[{i}]: "))
+    from .engines import make_solver
+
+    _, settings, model = solve_options_from_mapping(options, "solve_soils(): ")
+    solver = make_solver(settings.engine, model, workers=settings.workers, progress=progress, use_cache=cache)
+    return solver.solve_many([design_of(plane, "soil", g) for g in grounds], settings.freqs_mhz)
 
 
 def solve_with(design: Design, settings, model, progress: bool = False, cache: bool = True) -> Beam:

@@ -29,14 +29,14 @@ def test_the_core_docstring_examples_run(monkeypatch):
     tried = set()
     for name in gp.__all__:
         obj = getattr(gp, name)
-        if name in ("solve", "score", "optimise", "sweep", "shapes") or not obj.__doc__ or ">>>" not in obj.__doc__:
+        if name in ("solve", "solve_soils", "score", "optimise", "sweep", "shapes") or not obj.__doc__ or ">>>" not in obj.__doc__:
             continue
         for test in finder.find(obj, name, globs={"gp": gp, **vars(gp), **vars(gp.shapes)}):
             if test.examples and test.name == name:
                 runner.run(test)
                 tried.add(name)
     assert runner.failures == 0
-    assert set(gp.__all__) - {"shapes", "solve", "score", "optimise", "sweep"} <= tried
+    assert set(gp.__all__) - {"shapes", "solve", "solve_soils", "score", "optimise", "sweep"} <= tried
 
 
 def test_the_api_reference_builds_without_warnings(tmp_path):
@@ -68,6 +68,21 @@ def test_solve_then_fom_compare_and_the_beams_own_fom(tmp_path, monkeypatch):
     assert c.pairs[0].rms_db.max() > 0.1
     with pytest.raises(gp.UserInputError, match="unknown key"):
         gp.solve("square-10", mesh_size=1.0)
+
+
+def test_solve_soils_gives_each_soils_own_beam_solved_together(tmp_path, monkeypatch):
+    monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path))
+    opts = {"mesh": 2.0, "blade_cells": (4, 4), "freqs": "60:70:10", "workers": 0}
+    dry, wet = gp.solve_soils("square-10", [(2.5, 0.005), gp.Soil(5.0, 0.05)], **opts)
+    alone = gp.solve("square-10", eps_r=5.0, sigma=0.05, cache=False, **opts)
+    assert np.allclose(wet.gain, alone.gain, rtol=1e-6)
+    assert not np.allclose(dry.gain, wet.gain, rtol=1e-3)  # each soil its own beam, not one copied
+    with pytest.raises(gp.UserInputError, match="eps_r come from soils"):
+        gp.solve_soils("square-10", [(2.5, 0.005)], eps_r=3.0)
+    with pytest.raises(gp.UserInputError, match=r"soils\[1\] = 3.0 is neither"):
+        gp.solve_soils("square-10", [(2.5, 0.005), 3.0])
+    with pytest.raises(gp.UserInputError, match=r"soils\[0\]: .*eps_r must be >= 1"):
+        gp.solve_soils("square-10", [(0.5, 0.005)])
 
 
 def test_score_optimise_sweep_and_fabrication_plan(tmp_path, monkeypatch):
