@@ -77,8 +77,12 @@ def _die_with_parent(parent_pid: int) -> None:
 def unguarded_main_script() -> str | None:
     """Why spawned workers die at once when the program is a script whose solve is not under
     ``if __name__ == "__main__":`` (each worker imports the script again, which solves again, which
-    Python refuses in a worker), or None: a guess from the script's text, said as one."""
+    Python refuses in a worker) or was read from standard input (no file to import), or None: a
+    guess from the script's text, said as one."""
     path = getattr(sys.modules.get("__main__"), "__file__", None)
+    if path is not None and not Path(path).is_file():  # `python - <<EOF`: __file__ is '<stdin>'
+        return (f"the program came from {path}, not a file, and the spawned worker processes must import it "
+                "again: save it as a script with the solve under `if __name__ == \"__main__\":`, or use workers=0")
     try:
         text = Path(path).read_text() if path else None
     except (OSError, UnicodeDecodeError):

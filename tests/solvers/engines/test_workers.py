@@ -293,6 +293,25 @@ def test_a_script_without_a_main_block_is_named_when_its_workers_die(tmp_path, m
     assert unguarded_main_script() is None
     monkeypatch.setitem(sys.modules, "__main__", types.SimpleNamespace())  # a notebook, the REPL
     assert unguarded_main_script() is None
+    monkeypatch.setitem(sys.modules, "__main__", types.SimpleNamespace(__file__="<stdin>"))  # python - <<EOF
+    assert "came from <stdin>, not a file" in unguarded_main_script()
+
+
+def test_a_program_read_from_stdin_fails_with_the_cause_not_out_of_memory(tmp_path):
+    """`python - <<EOF` with workers: each spawned worker tries to import '<stdin>' again and dies; the
+    error guessed 'out of memory?'. It names the cause."""
+    program = textwrap.dedent(f"""
+        import sys
+        sys.path.insert(0, {str(ROOT)!r})
+        import groundplane as gp
+        beam = gp.solve("square-10", freqs="55:97:21", mesh=2.0, blade_cells=(4, 4), workers=2)
+        print("solved")
+    """)
+    env = {**os.environ, "GROUNDPLANE_CACHE": str(tmp_path / "cache")}
+    done = subprocess.run([sys.executable, "-"], input=program, cwd=tmp_path, env=env, capture_output=True,
+                          text=True, timeout=240)
+    assert done.returncode != 0 and "solved" not in done.stdout
+    assert "came from <stdin>, not a file" in done.stderr.splitlines()[-1]
 
 
 def test_a_script_without_a_main_block_fails_with_the_cause_instead_of_waiting_forever(tmp_path):
