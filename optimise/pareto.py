@@ -305,17 +305,23 @@ def verdicts(front: Front, target: float = 0.25, reference: str | None = None) -
     return out
 
 
-def label_offsets(points: list[tuple[float, float]], near: tuple[float, float] = (60.0, 8.0),
-                  step: float = 9.0) -> list[float]:
-    """Vertical label offsets (points) so that labels of points closer than ``near`` (m^2, mK)
-    stack instead of overprinting: each label goes above the ones already placed near it."""
+def label_offsets(points: list[tuple[float, float]], size: tuple[float, float] = (60.0, 10.0)) -> list[float]:
+    """Upward label offsets (points) for labels anchored at ``points`` (display points, x and y) and
+    ``size`` wide and tall (points), so that no two overprint: lowest point first, each label goes just
+    above any placed label its box would overlap. In display units, not data: a fixed gap in mK is a
+    different gap on the page on every front's axis."""
     offsets: list[float] = [0.0] * len(points)
-    placed: list[int] = []
+    placed: list[tuple[float, float]] = []  # (x, bottom of the label) of each placed label
     for i in sorted(range(len(points)), key=lambda k: points[k][1]):
-        crowd = [j for j in placed if abs(points[j][0] - points[i][0]) < near[0]
-                 and abs(points[j][1] - points[i][1]) < near[1]]
-        offsets[i] = max((offsets[j] + step for j in crowd), default=0.0)
-        placed.append(i)
+        x, y = points[i]
+        off, moved = 0.0, True
+        while moved:  # ends: the offset only grows, past each placed label at most once
+            moved = False
+            for px, bottom in placed:  # touching is not overlapping (with rounding: y + off - y != off)
+                if abs(px - x) < size[0] and abs(bottom - (y + off)) < size[1] - 1e-6:
+                    off, moved = bottom + size[1] - y, True
+        offsets[i] = off
+        placed.append((x, y + off))
     return offsets
 
 
@@ -369,9 +375,8 @@ def pareto_figure(front: Front, path: Path, beside: list[dict[str, Any]] | None 
         ax.plot([r["area_m2"] for r in ans], [r["answer_fom_mk"] for r in ans], "D", mfc="none", color="C0",
                 label=f"the same at the answer mesh ({ans[0]['answer_mesh_m']:g} m)")
     shown = [p for p in front.presets if p["preset"] != "pec" and p["fom_mk"] is not None]
-    for p, dy in zip(shown, label_offsets([(p["area_m2"], p["fom_mk"]) for p in shown])):
+    for p in shown:
         ax.plot(p["area_m2"], p["fom_mk"], "^", color="C3" if p.get("feasible") is not False else "0.6")
-        ax.annotate(p["preset"], (p["area_m2"], p["fom_mk"]), fontsize=7, xytext=(4, 2 + dy), textcoords="offset points")
     for p in front.presets:
         if p["preset"] == "pec":
             ax.axhline(p["fom_mk"], color="k", ls="--", lw=1, label=f"blade over infinite PEC ({p['fom_mk']:.1f} mK)")
@@ -379,6 +384,10 @@ def pareto_figure(front: Front, path: Path, beside: list[dict[str, Any]] | None 
     for b in sorted({r["budget_m2"] for r in front.rows}):
         ax.axvline(b, color="0.85", lw=0.8, zorder=0)
     ax.set(xlabel="metal area (m$^2$)", ylabel="FoM, the search's objective (mK)", title="Metal vs chromaticity")
+    fig.tight_layout()  # the axes' final place and limits, so the labels are spaced as they will be drawn
+    on_page = ax.transData.transform([(p["area_m2"], p["fom_mk"]) for p in shown]) * 72.0 / fig.dpi if shown else []
+    for p, dy in zip(shown, label_offsets([(float(x), float(y)) for x, y in on_page])):
+        ax.annotate(p["preset"], (p["area_m2"], p["fom_mk"]), fontsize=7, xytext=(4, 2 + dy), textcoords="offset points")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     return finish_figure(fig, path)

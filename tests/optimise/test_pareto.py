@@ -171,9 +171,51 @@ def test_the_robust_search_takes_the_search_options_the_command_line_gives(tmp_p
 def test_preset_labels_that_would_overprint_are_stacked():
     from optimise.pareto import label_offsets
 
-    # sawtooth-20-16, sawtooth-20-20 and extended sit within a few m^2 and mK of each other
-    offsets = label_offsets([(600.0, 88.5), (600.0, 90.9), (592.0, 87.7), (100.0, 223.1)])
-    assert sorted(offsets[:3]) == [0.0, 9.0, 18.0] and offsets[3] == 0.0
+    # three labels within a label's height of each other on the page (points), one far away
+    offsets = label_offsets([(400.0, 100.0), (400.0, 104.0), (395.0, 99.0), (50.0, 300.0)], size=(60.0, 10.0))
+    assert offsets[2] == 0.0 and offsets[0] == 9.0 and offsets[1] == 15.0 and offsets[3] == 0.0
+    # placed just touching, where 6.2 + (5.4 + 10 - 6.2) rounds to a hair below 15.4: the loop never
+    # ended (the pareto report hung); run beside, so a return of that bug fails instead of hanging
+    import threading
+
+    got: list = []
+    t = threading.Thread(target=lambda: got.append(label_offsets([(0.0, 6.2), (0.0, 5.4), (0.0, 43.9)])), daemon=True)
+    t.start()
+    t.join(10.0)
+    assert got and got[0][1] == 0.0 and abs(got[0][0] - 9.2) < 1e-9 and got[0][2] == 0.0
+    # apart by more than a label's height: left where they are
+    assert label_offsets([(400.0, 100.0), (400.0, 112.0)], size=(60.0, 10.0)) == [0.0, 0.0]
+
+
+def test_the_front_figure_prints_no_preset_label_over_another(tmp_path, monkeypatch):
+    """results/robust_front_0.5m/pareto.png printed sawtooth-20-20 over sawtooth-20-16: 9 mK apart, more
+    than the old fixed 8 mK gap, yet one label's height on an axis spanning 300 mK. Spaced on the page now."""
+    import matplotlib.text
+
+    from groundplane.plots import pyplot
+    from optimise.pareto import Front, pareto_figure
+
+    presets = [{"preset": n, "area_m2": a, "fom_mk": f, "max_loss": 0.003, "feasible": True}
+               for n, a, f in [("sawtooth-20-16", 600.0, 109.2), ("sawtooth-20-20", 600.0, 118.3),
+                               ("extended", 592.0, 108.9), ("square-10", 100.0, 290.4), ("plus-15", 125.0, 349.0),
+                               ("pec", 0.0, 82.4)]]
+    rows = [{"budget_m2": 600.0, "area_m2": 599.9, "fom_mk": 81.0, "max_loss": 0.004, "feasible": True}]
+    plt, seen = pyplot(), {}
+    close = plt.close
+
+    def keep(fig):  # the labels' boxes as drawn, read before the figure is closed
+        fig.canvas.draw()
+        seen.update({t.get_text(): t.get_window_extent(fig.canvas.get_renderer()) for t in fig.axes[0].texts
+                     if isinstance(t, matplotlib.text.Annotation)})
+        close(fig)
+
+    monkeypatch.setattr(plt, "close", keep)
+    pareto_figure(Front(rows=rows, presets=presets), tmp_path / "front.png")
+    assert set(seen) == {"sawtooth-20-16", "sawtooth-20-20", "extended", "square-10", "plus-15"}
+    boxes = list(seen.items())
+    for i, (a, ba) in enumerate(boxes):
+        for b, bb in boxes[i + 1:]:
+            assert not ba.overlaps(bb), (a, b)
 
 
 def test_the_soil_comparison_sentence_follows_the_rows():
