@@ -204,8 +204,11 @@ def _figures(ok: list[dict[str, Any]], out: Path) -> dict[str, Path]:
     shapes = [r for r in ok if r.get("shape") != "beam-file"]
     if shapes:
         figs["outlines"] = _outlines_figure(shapes, out / "outlines.png")
-    figs["fom_vs_lst"] = _fom_vs_lst_figure(ok, out / "fom_vs_lst.png")
-    figs["residuals"] = _residuals_figure(ok, out / "residuals.png")
+    # a figure only when some row has its curves (rows read back from an older results.json may not)
+    if any(r.get("fom_mk") is not None for r in ok):
+        figs["fom_vs_lst"] = _fom_vs_lst_figure(ok, out / "fom_vs_lst.png")
+    if any(r.get("residuals_mk") for r in ok):
+        figs["residuals"] = _residuals_figure(ok, out / "residuals.png")
     with_area = [r for r in ok if r.get("metal_area_m2") is not None]
     if with_area:
         figs["fom_vs_area"] = _fom_vs_area_figure(with_area, out / "fom_vs_area.png")

@@ -39,6 +39,18 @@ def test_report_writer(tmp_path):
 
 
 
+def test_rows_without_curves_get_no_empty_figures(tmp_path):
+    """Rows that carry only the LST-averaged FoM (no per-LST FoM, no residuals) still get the
+    outlines and FoM-vs-metal figures, but no empty FoM-vs-LST or residual panels."""
+    rows = [{"name": n, "status": "ok", "shape": "square", "params": {"side": s}, "metal_area_m2": s * s,
+             "extent_m": s, "lst_averaged_fom_mk": f} for n, s, f in (("a", 10.0, 300.0), ("b", 20.0, 200.0))]
+    paths = write_report(rows, tmp_path, title="t")
+    assert "outlines" in paths and "fom_vs_area" in paths
+    assert "fom_vs_lst" not in paths and "residuals" not in paths
+    assert not (tmp_path / "fom_vs_lst.png").exists()
+    assert "fom_vs_lst" not in paths["md"].read_text()
+
+
 def test_html_report_carries_everything_the_markdown_does(tmp_path):
     """Parsed, not grepped: every table cell, the not-scored section, the notes and every
     figure of report.md are in report.html."""
