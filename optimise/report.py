@@ -204,7 +204,7 @@ def _figures(ok: list[dict[str, Any]], out: Path) -> dict[str, Path]:
     shapes = [r for r in ok if r.get("shape") != "beam-file"]
     if shapes:
         figs["outlines"] = _outlines_figure(shapes, out / "outlines.png")
-    # a figure only when some row has its curves (rows read back from an older results.json may not)
+    # a figure only when some row has its curves: rows handed to write_report may carry only the averaged FoM
     if any(r.get("fom_mk") is not None for r in ok):
         figs["fom_vs_lst"] = _fom_vs_lst_figure(ok, out / "fom_vs_lst.png")
     if any(r.get("residuals_mk") for r in ok):
