@@ -122,3 +122,29 @@ def test_one_outline_one_key_whatever_the_parameters():
         member = xy.member(plane)
         assert member is not None and member.outline_key() == plane.outline_key(), name
     assert shapes.Square(side=10).outline_key() != shapes.Square(side=10.001).outline_key()
+
+
+def test_teeth_ending_microns_from_the_outlines_start_keep_their_corner():
+    """A tooth (or corner tooth) ending tens of microns short of the outline's first corner is a
+    plane, not a ring closing on itself: the 200 m^2 search lost 21 such designs on the area check."""
+    from groundplane.shapes import Teeth, TeethXY
+
+    xy = TeethXY(side=13.446868284729952, teeth_per_side=1, chamfer=4.101540891939196, base_x=1.4771717161276587,
+                 height_x=7.40980823068446, tip_x=0.7477779916498858, base_y=5.160854148855616,
+                 height_y=1.5149701362170305, tip_y=0.5948487315292351, base_d=5.800418188356838,
+                 height_d=1.35295874213568, tip_d=0.3501701847162893)  # corner teeth 37 um short of the chamfers
+    assert xy.chamfer * math.sqrt(2) - xy.base_d == pytest.approx(3.66e-5, rel=1e-2)
+    assert xy.outline().area == pytest.approx(xy.metal_area, abs=1e-9) and len(xy.outline().exterior.coords) == 41
+    t = Teeth(10.0, 1, 10.0 - 4e-5, 3.0, 0.5)  # the tooth's base ends 20 um from each corner
+    assert t.outline().area == pytest.approx(t.metal_area, abs=1e-9)
+
+
+def test_an_outline_that_disagrees_with_its_parts_names_by_how_much(monkeypatch):
+    from groundplane.shapes import Square
+
+    monkeypatch.setattr(Square, "area_of", classmethod(lambda cls, p: p["side"] ** 2 + 0.25))
+    with pytest.raises(ShapeError, match=r"parts overlap .* outline area 100 m\^2, 100.25 m\^2 expected "
+                                         r"\(a difference of -0.25 m\^2\)"):
+        Square(side=10.0)
+    monkeypatch.setattr(Square, "area_of", classmethod(lambda cls, p: p["side"] ** 2 - 5e-7))
+    assert Square(side=10.0).metal_area == pytest.approx(100.0)  # below AREA_CHECK_M2: float noise, not metal
