@@ -325,15 +325,28 @@ def stopping_sentence(stop: dict) -> str:
     if not stop or not stop.get("solves"):
         return ""
     if not stop.get("best_at"):
-        return f"No feasible design in {stop['solves']} solves."
+        return f"No feasible design in {stop['solves']} solves." + restarts_clause(stop)
     within = flat_within(stop)
     if stop.get("measure") == "violation":
         return (f"No feasible design in {stop['solves']} solves; the least violation so far was found at solve "
                 f"{stop['best_at']}{within}: " + ("flat over the last half." if stop["flat"] else "**not** flat over "
-                                                  "the last half."))
+                                                  "the last half.") + restarts_clause(stop))
     return (f"The best so far was found at solve {stop['best_at']} of {stop['solves']}{within}: "
             + ("flat over the last half." if stop["flat"] else "**not** flat over the last half (the search had not "
-               "converged; --max-budget lets it go on).") + best_plane_clause(stop))
+               "converged; --max-budget lets it go on).") + best_plane_clause(stop) + restarts_clause(stop))
+
+
+def restarts_clause(stop: dict) -> str:
+    """How often a refinement round solved nothing from its start (the next started elsewhere), and
+    whether the family ran out of designs to solve, as sentences; empty when neither happened."""
+    n = stop.get("barren_starts") or 0
+    out = (f" {n} refinement round{'s' if n != 1 else ''} solved nothing from {'their' if n != 1 else 'its'} start "
+           "(every plane proposed invalid, over the budget or met already); the next started from another design."
+           if n else "")
+    if stop.get("exhausted"):
+        out += (f" The search stopped at {stop['solves']} solves: no design of a fresh space-filling draw was left "
+                "that it had not met and could solve.")
+    return out
 
 
 def flat_within(stop: dict) -> str:

@@ -29,7 +29,7 @@ from .search import OptimiseResult, best_plane, best_plane_clause, best_so_far, 
 LADDER_DESIGNS = 24  # designs scored at both levels to measure how well the cheap one ranks (>= 20)
 PARETO_COLUMNS = ("budget_m2", "area_m2", "fom_mk", "worst_fom_mk", "mean_fom_mk", "max_loss", "loss_spread",
                   "feasible", "violations", "mesh_m", "design", "evaluations", "best_at", "flat", "flat_tolerance",
-                  "search_scatter", "best_plane_solves", "best_plane_gap", "search_fom_mk",
+                  "search_scatter", "best_plane_solves", "best_plane_gap", "barren_starts", "search_fom_mk",
                   "search_mesh_m", "search_max_loss", "answer_fom_mk", "answer_max_loss", "answer_mesh_m")
 PRESET_COLUMNS = ("preset", "area_m2", "fom_mk", "worst_fom_mk", "mean_fom_mk", "max_loss", "loss_spread", "feasible",
                   "violations")
@@ -90,7 +90,8 @@ def _answer(shape: str, budget_m2: float, res: OptimiseResult, confirm: EvalSett
     solves = stop.get("solves", len(res.solved()))
     head = {"budget_m2": budget_m2, "evaluations": solves, "best_at": stop.get("best_at"), "flat": stop.get("flat"),
             "flat_tolerance": stop.get("tolerance"), "search_scatter": stop.get("scatter"),
-            "best_plane_solves": stop.get("best_plane_solves"), "best_plane_gap": stop.get("best_plane_gap")}
+            "best_plane_solves": stop.get("best_plane_solves"), "best_plane_gap": stop.get("best_plane_gap"),
+            "barren_starts": stop.get("barren_starts")}
     if best is None:
         return {**head, "area_m2": None, "fom_mk": None, "mesh_m": confirm.spacing, "design": None}
     plane = best_plane(shape, best)
@@ -254,7 +255,7 @@ def _cell_value(column: str, text: str | None) -> Any:
     if text in ("True", "False"):
         return text == "True"
     try:
-        return int(text) if column in ("evaluations", "best_at", "best_plane_solves") else float(text)
+        return int(text) if column in ("evaluations", "best_at", "best_plane_solves", "barren_starts") else float(text)
     except ValueError:
         return text
 
@@ -278,6 +279,8 @@ def verdicts(front: Front, target: float = 0.25, reference: str | None = None) -
             out.append(f"- {r['budget_m2']:g} m^2: no design was scored.")
             continue
         tol = "" if r.get("flat_tolerance") is None else f" within {100 * r['flat_tolerance']:.1f} %"
+        if r.get("barren_starts"):  # rounds that solved nothing from their start and restarted elsewhere
+            tol += f"; {r['barren_starts']} refinement round(s) restarted from another design"
         if r.get("feasible") is False:
             flat = ("" if not r.get("best_at") else f" (the least violation found at solve {r['best_at']}{tol}: "
                     + ("flat over the last half)" if r.get("flat") else "**not** flat over the last half)"))

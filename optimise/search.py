@@ -371,7 +371,7 @@ def optimise(
         _global_search(fam, ints, ev, algorithm, out, executor, scheduler, seeds, explore)
     else:
         _local_search(fam, ints, ev, algorithm)
-    stopping = _until_flat(fam, ev, algorithm, max(budget, max_budget or budget))
+    stopping = _until_flat(fam, ints, ev, algorithm, max(budget, max_budget or budget))
     fine = (confirm_settings or settings.with_spacing(confirm_mesh)) if (confirm_mesh or confirm_settings) else None
     best, confirmed = _answer(ev, fine, out, confirm_top, progress)
     return OptimiseResult(best, ev.hist.rows, out, confirmed, None if best else ev.closest(), stopping,
@@ -555,27 +555,51 @@ def least_violation_so_far(solved: list[dict[str, Any]]) -> list[float]:
     return curve
 
 
-def _until_flat(fam: Family, ev: "_Evaluator", algorithm: str, max_budget: int) -> dict[str, Any]:
+RESTART_DISTANCE = 0.05  # of each parameter's range (the until-flat rounds' first step): a start this near one that
+# proposed nothing solvable would propose the same planes again
+
+
+def _until_flat(fam: Family, ints: tuple, ev: "_Evaluator", algorithm: str, max_budget: int) -> dict[str, Any]:
     """Go on refining from the best design (with none feasible: the closest), half the solves so
     far at a time, until at least the budget asked is spent and the best so far lies in the first
-    half of the solves, or ``max_budget`` solves are spent."""
+    half of the solves, or ``max_budget`` solves are spent. A round that solves nothing (every plane
+    it proposed is invalid, over the budget or solved already) does not end the search: the next
+    starts from the best design not within RESTART_DISTANCE of such a start, and with none left from
+    a fresh space-filling draw."""
     span = np.array(fam.upper, float) - np.array(fam.lower, float)
     state = flat_over_last_half(ev.counted, span=span)  # as counted, so a resumed search decides as the first run did
-    asked, k = ev.budget, 0
+    asked, k, barren, exhausted = ev.budget, 0, [], False
     while (not state["flat"] or ev.solves < asked) and ev.solves < max_budget:
-        best = ev.best() or ev.closest()
-        if best is None:
-            break
         k += 1
         more = min(max_budget, max(ev.solves + 1, 2 * state["best_at"], asked)) - ev.solves
-        ev.budget = ev.solves + more
-        before = ev.solves
-        _run_nlopt(fam, best["integer"], ev, algorithm, ev.solves + more, ev.max_area, ev.progress,
-                   x0=np.array(best["x"]), phase=f"until-flat-{k}", step=0.05)
-        if ev.solves == before:  # nlopt converged at once: nothing new to try from here
-            break
+        ev.budget, before = ev.solves + more, ev.solves
+        start = ev.next_start(barren, span)
+        if start is None:
+            if not _fresh_draw(fam, ints, ev, seed=k, phase=f"until-flat-{k}-draw"):
+                exhausted = True  # the family holds no design left to solve
+                break
+        else:
+            _run_nlopt(fam, start["integer"], ev, algorithm, ev.solves + more, ev.max_area, ev.progress,
+                       x0=np.array(start["x"]), phase=f"until-flat-{k}", step=RESTART_DISTANCE)
+            if ev.solves == before:  # nothing solvable from here: the next round starts elsewhere
+                barren.append(start)
+                if ev.progress:
+                    print(f"  round until-flat-{k} solved nothing from its start; the next starts from another "
+                          "design", file=sys.stderr, flush=True)
         state = flat_over_last_half(ev.counted, span=span)
-    return {**state, "max_budget": max_budget}
+    return {**state, "max_budget": max_budget, "barren_starts": len(barren), "exhausted": exhausted}
+
+
+def _fresh_draw(fam: Family, ints: tuple, ev: "_Evaluator", seed: int, phase: str) -> bool:
+    """Solve the first design of a space-filling draw (Sobol ``seed``; the exploration's is 0) that
+    the search has not met and can solve (one built alike a solved one is met); False when there is none."""
+    before = ev.solves
+    for x, n in space_filling(fam, ints, ev.max_area, 2 ** 10, seed=seed):
+        if ev.hist.get(n, x) is None and ev.reason(x, n) is None:
+            ev(x, np.zeros(0), n, phase=phase)
+            if ev.solves > before:
+                return True
+    return False
 
 
 def integer_choices(fam: Family, integer_values: Iterable[int] | None) -> tuple:
@@ -766,6 +790,21 @@ class _Evaluator:
         """With no feasible row: the solved row whose constraints are broken least (relative)."""
         ok = [r for r in self.counted if r["status"] == "ok" and r["area_m2"] <= self.max_area * (1 + 1e-9)]
         return min(ok, key=lambda r: (max(r.get("margins") or [0.0]), r["fom_mk"])) if ok else None
+
+    def next_start(self, barren: list[dict[str, Any]], span: np.ndarray) -> dict[str, Any] | None:
+        """The best design (feasible ones by FoM, then the rest by how little they break the
+        constraints; within the area budget) not within RESTART_DISTANCE of a ``barren`` start
+        (one from which a round solved nothing), or None."""
+        span = np.where(span > 0, span, 1.0)
+        ok = sorted((r for r in self.counted if r["status"] == "ok" and r["area_m2"] <= self.max_area * (1 + 1e-9)),
+                    key=lambda r: (not r.get("feasible", True),
+                                   0.0 if r.get("feasible", True) else max(r.get("margins") or [0.0]), r["fom_mk"]))
+        for r in ok:
+            if all(r.get("integer") != b.get("integer") or
+                   np.abs((np.asarray(r["x"], float) - np.asarray(b["x"], float)) / span).max() >= RESTART_DISTANCE
+                   for b in barren):
+                return r
+        return None
 
     def margins(self, n: int | None, x) -> list[float]:
         """Each constraint's relative margin at x (<= 0 when met); 0 where x has no solved row."""

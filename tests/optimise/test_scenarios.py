@@ -214,6 +214,31 @@ def test_max_budget_goes_on_until_flat(tmp_path):
     assert res.best["fom_mk"] == pytest.approx(100.0, abs=0.5)
 
 
+def test_a_round_that_solves_nothing_restarts_elsewhere_until_the_budget(tmp_path):
+    """The 200 m^2 robust search stopped at 96 of 120 solves: a round from its closest design (on the
+    area wall) proposed only planes it could not solve. Here rounds from the best propose only planes
+    built alike a solved one (a 0.52 m build tolerance on the side): the search restarts from other
+    designs and fresh draws until the budget is spent, resumes without a solve, and says so; with a
+    tolerance that leaves the family nothing new it stops short and says why."""
+    from optimise.cli import stopping_sentence
+
+    calls = []
+
+    def ev(c, s):
+        calls.append(c.plane.side)
+        return {"status": "ok", "lst_averaged_fom_mk": 100.0 + (c.plane.side - 13.3) ** 2}
+    kw = dict(budget=16, evaluate_fn=ev, progress=False, explore=3, max_budget=40)
+    res = optimise("square", 900.0, EvalSettings(), tmp_path / "a", build_tolerance=0.02, **kw)
+    stop = res.stopping
+    assert stop["solves"] == 16 and stop["barren_starts"] >= 1 and not stop["exhausted"] and len(calls) == 16
+    assert "refinement rounds solved nothing from their start" in stopping_sentence(stop)
+    again = optimise("square", 900.0, EvalSettings(), tmp_path / "a", build_tolerance=0.02, **kw)
+    assert len(calls) == 16 and again.stopping == stop and again.best == res.best  # replayed, same path
+    short = optimise("square", 900.0, EvalSettings(), tmp_path / "b", build_tolerance=0.04, **kw).stopping
+    assert short["exhausted"] and short["solves"] < 16
+    assert f"The search stopped at {short['solves']} solves: no design of a fresh" in stopping_sentence(short)
+
+
 def test_teeth_xy_holds_the_paper_planes_crosses_and_stars():
     for name, plane in PRESETS.items():
         m = TeethXY.member(plane)
