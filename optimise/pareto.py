@@ -374,9 +374,9 @@ def pareto_figure(front: Front, path: Path, beside: list[dict[str, Any]] | None 
         ax.plot([r["area_m2"] for r in beside], [r["fom_mk"] for r in beside], "s--", color="0.5", mfc="none",
                 label=beside_label)
     ans = [r for r in done if r.get("answer_fom_mk") is not None]
-    if ans:
-        ax.plot([r["area_m2"] for r in ans], [r["answer_fom_mk"] for r in ans], "D", mfc="none", color="C0",
-                label=f"the same at the answer mesh ({ans[0]['answer_mesh_m']:g} m)")
+    if ans:  # drawn over the answers' circles, which lie a few mK away and hid them
+        ax.plot([r["area_m2"] for r in ans], [r["answer_fom_mk"] for r in ans], "D", mfc="none", color="C1", mew=1.5,
+                zorder=4, label=f"the same at the answer mesh ({ans[0]['answer_mesh_m']:g} m)")
     shown = [p for p in front.presets if p["preset"] != "pec" and p["fom_mk"] is not None]
     for p in shown:
         ax.plot(p["area_m2"], p["fom_mk"], "^", color="C3" if p.get("feasible") is not False else "0.6")
