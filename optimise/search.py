@@ -279,17 +279,19 @@ def _differences(old: Any, new: Any, where: str = "") -> list[str]:
     return [] if old == new else [f"{where}: {json.dumps(old)[:60]} -> {json.dumps(new)[:60]}"]
 
 
-def _confirm(ev: "_Evaluator", fine: EvalSettings, out: Path, top: int, progress: bool) -> list[dict[str, Any]]:
-    """Re-solve the ``top`` best distinct designs of the search with ``fine`` (a finer mesh, or
-    the default model; resumable: confirm.jsonl, keyed by those settings), so the answer is
-    one that holds beyond the level the search used."""
+def _confirm(ev: "_Evaluator", fine: EvalSettings, out: Path, top: int, progress: bool,
+             picked: list[dict[str, Any]] | None = None) -> list[dict[str, Any]]:
+    """Re-solve the ``top`` best distinct designs of the search (or the ``picked`` rows) with
+    ``fine`` (a finer mesh, or the default model; resumable: confirm.jsonl, keyed by those
+    settings), so the answer is one that holds beyond the level the search used."""
     level = hashlib.sha256(json.dumps(fine.identity(), sort_keys=True).encode()).hexdigest()[:16]
     done = {History.key(r["integer"], r["x"]): r for r in read_jsonl(out / "confirm.jsonl")
             if r.get("confirm_level") == level}  # a rerun at another level re-solves
     # distinct planes: rows of one outline under other parameters (solved before a search knew them for one) once
     ranked = sorted((r for r in ev.counted if r["status"] == "ok" and r.get("feasible", True)
                      and r["area_m2"] <= ev.max_area * (1 + 1e-9)), key=lambda r: r["fom_mk"])
-    picked = list({row_plane(ev.fam, r).outline_key(): r for r in reversed(ranked)}.values())[::-1][:top]
+    if picked is None:
+        picked = list({row_plane(ev.fam, r).outline_key(): r for r in reversed(ranked)}.values())[::-1][:top]
     rows = []
     for i, r in enumerate(picked, 1):
         k = History.key(r["integer"], r["x"])
@@ -373,8 +375,8 @@ def optimise(
         _local_search(fam, ints, ev, algorithm)
     stopping = _until_flat(fam, ints, ev, algorithm, max(budget, max_budget or budget))
     fine = (confirm_settings or settings.with_spacing(confirm_mesh)) if (confirm_mesh or confirm_settings) else None
-    best, confirmed = _answer(ev, fine, out, confirm_top, progress)
-    return OptimiseResult(best, ev.hist.rows, out, confirmed, None if best else ev.closest(), stopping,
+    best, confirmed, closest = _answer(ev, fine, out, confirm_top, progress)
+    return OptimiseResult(best, ev.hist.rows, out, confirmed, closest, stopping,
                           list(ev.counted))
 
 
@@ -413,20 +415,25 @@ def engine_model(settings: EvalSettings) -> dict[str, Any] | None:
     return {"engine": engine, "version": int(ENGINES[engine].model_version)} if engine in ENGINES else None
 
 
-def _answer(ev: "_Evaluator", fine: EvalSettings | None, out: Path, confirm_top: int,
-            progress: bool) -> tuple[dict[str, Any] | None, list[dict[str, Any]]]:
+def _answer(ev: "_Evaluator", fine: EvalSettings | None, out: Path, confirm_top: int, progress: bool
+            ) -> tuple[dict[str, Any] | None, list[dict[str, Any]], dict[str, Any] | None]:
     """The best feasible design (the best of the top ``confirm_top`` re-solved with ``fine``,
-    when given), written to ``best.json``; and those confirmations."""
-    best = ev.best()
+    when given), written to ``best.json``; those confirmations; and with none feasible the
+    closest design, re-solved with ``fine`` too (its FoM then reads on the frequencies and mesh
+    of the presets and answers beside it, not the search level's)."""
+    best, closest = ev.best(), None
     confirmed: list[dict[str, Any]] = []
     if best is not None and fine is not None:
         confirmed = _confirm(ev, fine, out, confirm_top, progress)
         held = [r for r in confirmed if r["status"] == "ok" and r.get("feasible", True)]
         if held:
             best = min(held, key=lambda r: r["fom_mk"])
+    elif best is None and (closest := ev.closest()) is not None and fine is not None:
+        confirmed = _confirm(ev, fine, out, 1, progress, picked=[closest])
+        closest = confirmed[0] if confirmed[0]["status"] == "ok" else closest
     with atomic_path(out / "best.json", suffix=".tmp.json") as tmp:
         tmp.write_text(json.dumps(best, indent=1))
-    return best, confirmed
+    return best, confirmed, closest
 
 
 def _objective(objective: dict[str, Any] | None, scenarios, constraints) -> dict[str, Any] | None:

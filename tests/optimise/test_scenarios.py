@@ -177,6 +177,12 @@ def test_the_search_never_answers_an_infeasible_design_and_the_loss_binds(tmp_pa
     # front's 200 m^2 stopped at 108 of 120), and its stopping rule reads the least violation
     assert nothing.stopping["solves"] == 6 and nothing.stopping["measure"] == "violation"
     assert nothing.closest["params"]["side"] == pytest.approx(np.sqrt(50.0), rel=0.02)  # the most metal it may have
+    # asked to confirm, the closest is re-solved at that level too: its FoM then reads on the presets' frequencies
+    fine = EvalSettings().with_spacing(0.25)
+    confirmed = optimise("square", 50.0, EvalSettings(), tmp_path / "small", budget=6, evaluate_fn=ev, progress=False,
+                         constraints=Constraints(0.003), confirm_settings=fine).closest
+    assert confirmed["confirmed_at"] == 0.25 and confirmed["search_fom_mk"] == nothing.closest["fom_mk"]
+    assert confirmed["x"] == nothing.closest["x"] and not confirmed["feasible"]
 
 
 def _rule(stop: dict) -> dict:
