@@ -24,7 +24,16 @@ from groundplane.shapes import PRESETS, to_dict
 from .evaluate import Candidate, EvalSettings, evaluate, pec_floor_mk
 from .provenance import header
 from .report import cell
-from .search import OptimiseResult, best_plane, best_plane_clause, best_so_far, family, optimise, solved_rows
+from .search import (
+    OptimiseResult,
+    best_plane,
+    best_plane_clause,
+    best_so_far,
+    family,
+    least_violation_so_far,
+    optimise,
+    solved_rows,
+)
 
 LADDER_DESIGNS = 24  # designs scored at both levels to measure how well the cheap one ranks (>= 20)
 PARETO_COLUMNS = ("budget_m2", "area_m2", "fom_mk", "worst_fom_mk", "mean_fom_mk", "max_loss", "loss_spread",
@@ -400,7 +409,10 @@ def convergence_curve(res: OptimiseResult) -> dict[str, Any]:
     """A search's best-so-far FoM after each solve (inf before the first feasible one), the solves
     of its local refinement and the stopping rule's tolerance: what the convergence figure draws."""
     solved = res.solved()
-    return {"best": np.array(best_so_far(solved), float), "tolerance": (res.stopping or {}).get("tolerance"),
+    best = np.array(best_so_far(solved), float)
+    # with nothing feasible, what the stopping rule read instead: the least relative constraint violation
+    violation = None if len(best) and np.isfinite(best[-1]) else np.array(least_violation_so_far(solved), float)
+    return {"best": best, "tolerance": (res.stopping or {}).get("tolerance"), "violation": violation,
             "refine": [i for i, r in enumerate(solved) if str(r.get("phase", "")).startswith("refine")]}
 
 
@@ -410,6 +422,8 @@ def write_convergence(folder: Path, res: OptimiseResult) -> None:
     c = convergence_curve(res)
     record = {"best_so_far_mk": [float(v) if np.isfinite(v) else None for v in c["best"]], "refine": c["refine"],
               "tolerance": c["tolerance"]}
+    if c["violation"] is not None:
+        record["least_violation_so_far"] = [float(v) if np.isfinite(v) else None for v in c["violation"]]
     with atomic_path(folder / "convergence.json", suffix=".tmp.json") as tmp:
         tmp.write_text(json.dumps(record))
 
@@ -419,8 +433,10 @@ def read_convergence(folder: Path) -> dict[str, Any] | None:
     a folder from before it was written)."""
     try:
         got = json.loads((folder / "convergence.json").read_text())
+        least = got.get("least_violation_so_far")
         return {"best": np.array([np.inf if v is None else v for v in got["best_so_far_mk"]], float),
-                "refine": [int(i) for i in got.get("refine", [])], "tolerance": got.get("tolerance")}
+                "refine": [int(i) for i in got.get("refine", [])], "tolerance": got.get("tolerance"),
+                "violation": None if least is None else np.array([np.inf if v is None else v for v in least], float)}
     except (OSError, ValueError, KeyError, TypeError):
         return None
 
@@ -438,27 +454,45 @@ def convergence_curves(front: Front, out: Path | None = None) -> dict[float, dic
 
 def convergence_figure(front: Front, path: Path, out: Path | None = None) -> Path:
     """Best-so-far FoM (search level) against solves, one line per budget (:func:`convergence_curves`),
-    exploration and refinement marked: a flat second half says the search has stopped finding better designs."""
+    exploration and refinement marked: a flat second half says the search has stopped finding better designs.
+    A budget with no feasible design gets its least constraint violation so far in a panel below (what its
+    stopping rule read)."""
     from groundplane.plots import finish_figure, pyplot
 
     curves = convergence_curves(front, out)
+    infeasible = {b: c for b, c in curves.items() if c.get("violation") is not None and len(c["violation"])
+                  and np.isfinite(c["violation"][-1])}
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(8, 4.5))
+    if infeasible:
+        fig, (ax, low) = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True, gridspec_kw={"height_ratios": [2, 1]})
+    else:
+        fig, ax = plt.subplots(figsize=(8, 4.5))
     for k, (b, c) in enumerate(sorted(curves.items())):
-        best = c["best"]
-        x = np.arange(1, len(best) + 1)
-        ax.step(x, best, where="post", color=f"C{k}", label=f"{b:g} m$^2$")
-        if c["refine"]:
-            ax.plot(x[c["refine"]], best[c["refine"]], ".", color=f"C{k}", ms=3)
-        if len(best) and np.isfinite(best[-1]) and c["tolerance"] is not None:
-            # the stopping rule drawn: the final best's tolerance band, and the half the best must lie before
-            ax.axhspan(best[-1], best[-1] * (1 + c["tolerance"]), color=f"C{k}", alpha=0.12, lw=0)
-            ax.axvline(len(best) / 2, color=f"C{k}", ls=":", lw=0.8)
-    ax.set(xlabel="solves (dots: local refinement; dotted: half the solves; band: the final best's flat tolerance)",
-           ylabel="best feasible FoM so far, search level (mK)", title="Search convergence per metal budget")
+        _convergence_line(ax, c["best"], c, f"C{k}", f"{b:g} m$^2$")
+        if b in infeasible:
+            _convergence_line(low, 100 * c["violation"], c, f"C{k}", f"{b:g} m$^2$ (no feasible design)")
+    bottom = low if infeasible else ax
+    bottom.set_xlabel("solves (dots: local refinement; dotted: half the solves; band: the final best's flat tolerance)")
+    ax.set(ylabel="best feasible FoM so far, search level (mK)", title="Search convergence per metal budget")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, title="budget")
+    if infeasible:
+        low.set_ylabel("least violation so far\n(% beyond the limit)")
+        low.grid(alpha=0.3)
+        low.legend(fontsize=8)
     return finish_figure(fig, path)
+
+
+def _convergence_line(ax, y: np.ndarray, c: dict[str, Any], colour: str, label: str) -> None:
+    """One budget's best-so-far curve, its refinement solves dotted, and its stopping rule drawn: the
+    final value's tolerance band and the half of the solves it must lie before."""
+    x = np.arange(1, len(y) + 1)
+    ax.step(x, y, where="post", color=colour, label=label)
+    if c["refine"]:
+        ax.plot(x[c["refine"]], y[c["refine"]], ".", color=colour, ms=3)
+    if len(y) and np.isfinite(y[-1]) and c["tolerance"] is not None:
+        ax.axhspan(y[-1], y[-1] * (1 + c["tolerance"]), color=colour, alpha=0.12, lw=0)
+        ax.axvline(len(y) / 2, color=colour, ls=":", lw=0.8)
 
 
 def write_report(front: Front, out: Path, command: str, settings: EvalSettings, confirm: EvalSettings,

@@ -355,3 +355,29 @@ def test_optimise_pareto_prints_the_reference_verdicts_from_the_rows(tmp_path, m
         assert f"{fom:.1f} mK at 400 m^2 (200 solves; best at solve 194 of 200 within 1.1 %" in ref
         assert expect in ref and "against sawtooth-20-16 109.2 mK at 600 m^2" in ref
         assert "**not** flat over the last half" in ref
+
+
+def test_a_budget_with_nothing_feasible_draws_what_its_stopping_rule_read(tmp_path):
+    """The 200 m^2 robust budget had no feasible design, so its best-so-far FoM was never finite and the
+    convergence figure drew nothing for it; its least violation so far is now kept and drawn."""
+    from optimise.pareto import read_convergence
+    from optimise.scenarios import Constraints
+    from optimise.search import least_violation_so_far
+
+    def ev(candidate, settings):  # the loss limit 0.3 % needs 333 m^2: 200 m^2 cannot meet it
+        return {"status": "ok", "lst_averaged_fom_mk": toy_fom(candidate.plane, settings.spacing),
+                "max_loss": 1.0 / candidate.plane.metal_area}
+    front = pareto_front("teeth", [200.0, 600.0], EvalSettings().with_spacing(1.0), EvalSettings(), tmp_path, budget=8,
+                         answer_mesh=None, ladder=0, evaluate_fn=ev, progress=False, floor=lambda s: 55.0,
+                         constraints=Constraints(0.003))
+    small = read_convergence(tmp_path / "budget-200")
+    assert not np.isfinite(small["best"]).any() and small["violation"] is not None
+    assert small["violation"] == pytest.approx(least_violation_so_far(front.results[200.0].solved()))
+    least = 1.0 / (200.0 * 0.003) - 1  # the loss of a plane of all 200 m^2, relative to the limit
+    assert least - 1e-9 <= small["violation"][-1] < least * 1.2
+    assert read_convergence(tmp_path / "budget-600")["violation"] is None
+    write_report(front, tmp_path, "test", EvalSettings().with_spacing(1.0), EvalSettings())
+    import matplotlib.image
+
+    tall, wide = matplotlib.image.imread(tmp_path / "convergence.png").shape[:2]
+    assert tall / wide > 0.7  # the violation panel under the FoM panel (one panel: 4.5 x 8 in)
