@@ -3,7 +3,7 @@ see? The worst soil member of the `soil` set at the default model (0.5 m, 55-97 
 from the cache, solved if missing) in 2 h LST bins on Haslam (the objective), at every LST, and on the
 GSM2008 and LFSM skies (2 h bins), and at the other experiments' sites (Karoo, MARS, OVRO; Haslam,
 2 h bins, the antenna still turned -7 deg as at the MRO), and with the antenna (and plane) turned to
-38 and 83 deg at the MRO, for the 400 and 600 m^2 answers of this folder, the 0.7 m search's 600 m^2
+38 and 83 deg at the MRO, for the 400, 600 and 900 m^2 answers of this folder, the 0.7 m search's 600 m^2
 star and `sawtooth-20-16`. Prints a markdown table; the verdict of
 each row is a condition on its numbers.
 
@@ -49,6 +49,7 @@ def main() -> None:
 
     planes = {"the 400 m^2 answer (0.5 m search)": from_file(ROOT / "results/robust_front_0.5m/answer-400.json"),
               "the 600 m^2 answer (0.5 m search)": from_file(ROOT / "results/robust_front_0.5m/answer-600.json"),
+              "the 900 m^2 answer (0.5 m search)": from_file(ROOT / "results/robust_front_0.5m/answer-900.json"),
               "the 600 m^2 star (0.7 m search)": from_file(ROOT / "results/robust_front/answer-600.json")}
     reference = worst_members(PRESETS["sawtooth-20-16"])
     print(f"<!-- .venv/bin/python {Path(__file__).relative_to(ROOT)} > "
