@@ -29,16 +29,24 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
-SOILS = [(3.5, 0.02), (2.5, 0.005), (2.5, 0.05), (5.0, 0.005), (5.0, 0.05)]  # the `soil` set: MRO, the corners
+
+
+def soil_set() -> list[tuple[float, float]]:
+    """The ``soil`` scenario set's soils, MRO first (``optimise.scenarios``: the corners and the paper's MRO)."""
+    from groundplane import paper
+    from optimise.scenarios import SOIL_CORNERS
+
+    return [(paper.MRO_EPS_R, paper.MRO_SIGMA_S_PER_M), *SOIL_CORNERS]
 
 
 def solve(plane, mesh: float, freqs, workers: int, warm: bool = True, rtol: float | None = None,
-          soils=SOILS) -> dict:
+          soils=None) -> dict:
     """Beams by soil of one solve of ``plane`` with the warm start and tolerance given (in-process
     flags reach only ``workers=0``: spawned workers import the module's defaults)."""
     from groundplane.design import Design, Soil
     from solvers.engines.surface import SurfaceSettings, SurfaceSolver, pfft
 
+    soils = soils or soil_set()
     saved = pfft.WARM_START, pfft.WARM_START_ACROSS_FREQUENCIES, pfft.GMRES_RTOL
     pfft.WARM_START = pfft.WARM_START_ACROSS_FREQUENCIES = warm
     pfft.GMRES_RTOL = rtol or saved[2]
@@ -74,7 +82,7 @@ def main() -> None:
     variants = {"default, 2 workers": lambda: solve(plane, args.mesh, freqs, 2),
                 "default, in-process": lambda: solve(plane, args.mesh, freqs, 0),
                 "from zero": lambda: solve(plane, args.mesh, freqs, 0, warm=False),
-                "reverse order": lambda: solve(plane, args.mesh, freqs, 0, soils=SOILS[::-1])}
+                "reverse order": lambda: solve(plane, args.mesh, freqs, 0, soils=soil_set()[::-1])}
     fom = {}
 
     def fom_of(beam) -> float:
@@ -97,7 +105,7 @@ def main() -> None:
         print(name, file=sys.stderr)
         beams = run()
         diffs = []
-        for soil in SOILS:
+        for soil in soil_set():
             b, r = beams[soil], ref[soil]
             d = fom_of(b) - fom_of(r)
             diffs.append(abs(d))

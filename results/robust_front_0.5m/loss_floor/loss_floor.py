@@ -77,11 +77,22 @@ def main() -> None:
     at = a0 * (LIMIT / l0) ** (1 / p)
     print(f"A square meets the limit from {a1:.0f} m^2 and not at {a0:.0f} m^2 (the loss falls as metal^{p:.2f} "
           f"between them: {at:.0f} m^2 at the limit). So the least metal a plane of the family needs to meet the "
-          f"limit is at most {a1:.0f} m^2" + (
-              f"; the 200 m^2 search's least loss, {100 * float(front[200.0]['search_max_loss']):.3f} %, is "
-              + ("above" if float(front[200.0]["search_max_loss"]) > LIMIT else "within")
-              + " the limit." if 200.0 in front else "."))
-
+          f"limit is at most {a1:.0f} m^2.")
+    # the squares' trend over all of them (a power law fitted in log-log), read at the searched 200 m^2 row's metal
+    area, loss = np.array([r[0] for r in rows]), np.array([r[2] for r in rows])
+    slope, icept = np.polyfit(np.log(area), np.log(loss), 1)
+    print(f"\nOver all {len(rows)} squares ({area.min():.0f}-{area.max():.0f} m^2) the loss falls as metal^{slope:.2f}.")
+    if 200.0 in front:
+        r = front[200.0]
+        got, a = float(r["search_max_loss"]), float(r["area_m2"])
+        trend = float(np.exp(icept) * a ** slope)
+        near = abs(got / trend - 1) <= 0.1
+        print(f"At the 200 m^2 search's {a:.1f} m^2 that trend reads {100 * trend:.3f} %; the search's least loss, "
+              f"{100 * got:.3f} %, is {100 * (got / trend - 1):+.1f} % from it: "
+              + ("within 10 %, so the searched teeth lowered the loss no further than a square of that metal would."
+                 if near else ("below it by more than 10 %: the searched shape loses less than a square of that metal."
+                               if got < trend else "above it by more than 10 %: the searched shape loses more than a "
+                               "square of that metal.")))
 
 if __name__ == "__main__":
     sys.exit(main())
