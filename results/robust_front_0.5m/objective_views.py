@@ -13,8 +13,10 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT))
-SOILS = [(3.5, 0.02), (2.5, 0.005), (2.5, 0.05), (5.0, 0.005), (5.0, 0.05)]
+sys.path[:0] = [str(ROOT), str(ROOT / "benchmarks")]
+from check_solve_path import soil_set  # noqa: E402  (the `soil` set's soils, MRO first)
+
+SOILS = soil_set()
 VIEWS = {"Haslam, 2 h bins (the objective)": {}, "Haslam, every LST": {"lst_bin": 0},
          "GSM2008, 2 h bins": {"sky": "gsm2008"}, "LFSM, 2 h bins": {"sky": "lfsm"},
          # the other experiments' sites (groundplane.sky.SITES), Haslam in 2 h bins: the search saw the MRO only
