@@ -42,8 +42,9 @@ DEFAULT_FREQS_MHZ = tuple(float(f) for f in np.arange(40.0, 101.0))  # SPEC: 40-
 class SolveSettings:
     """Which engine solves, at which frequencies, on how many processes."""
 
-    engine: str = option("surface", "EM engine: surface (solid sheets, RWG; reproduces FEKO's beam over soil) or "
-                         "nec (NEC-2 wire grids, the cross-check)")
+    engine: str = option("surface", "EM engine: surface (solid sheets, RWG; reproduces FEKO's beam over soil), "
+                         "nec (NEC-2 wire grids, the cross-check) or fdtd (gprMax's FDTD, the referee: a volume, "
+                         "time-domain method; minutes to an hour a run)")
     freqs_mhz: tuple[float, ...] = option(DEFAULT_FREQS_MHZ, "frequencies (MHz): LO:HI:STEP (inclusive), a comma "
                                           "list, or fit-band (55:97:1, all the FoM uses) (default 40:100:1)",
                                           flag="--freqs", parse=parse_freqs)
@@ -127,13 +128,17 @@ class Plan:
 
     ``job(payload, freq)`` runs in a worker process and returns
     ``(gain [91, n_phi], extras {name: float})``; ``meta`` goes into the beam's metadata.
+    A ``broadband`` plan's job is called once, in this process, for every frequency left:
+    ``job(payload, freqs)`` returns ``[(freq, (gain, extras), seconds)]`` (a time-domain engine
+    gets all frequencies from one run, which runs its own threads).
     """
 
-    job: Callable[[Any, float], tuple[np.ndarray, dict[str, float]]]
+    job: Callable[[Any, Any], Any]
     payload: Any
     n_phi: int  # 91: one quadrant, mirrored; 360: the full circle
     meta: dict[str, Any] = field(default_factory=dict)
     label: str = ""
+    broadband: bool = False
 
 
 def _timed(args: tuple) -> tuple[float, Any, float]:
@@ -400,6 +405,10 @@ class Solver(ABC):
                 bar.close()
 
     def _attempt(self, plan: Plan, todo: list[float]):
+        if plan.broadband:
+            if todo:
+                yield from plan.job(plan.payload, todo)
+            return
         jobs = [(plan.job, plan.payload, f) for f in todo]
         if not (self.workers >= 1 and todo):
             yield from map(_timed, jobs)
