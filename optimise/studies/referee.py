@@ -254,7 +254,8 @@ def referee(out: Path, command: str, candidate: GroundPlane, candidate_name: str
         write_csv(out / "fom_bins.csv", bins)
         _figure(bins, out / "referee.png")
         write_md(out / "referee.md", _report(rows, diffs, _margins(rows, candidate_name, reference), cases[i + 1:],
-                                             candidate_name, reference, freqs, cell), command)
+                                             candidate_name, reference, freqs, cell), "study referee", command,
+                 {"freqs_mhz": [float(f) for f in freqs], "fdtd_cell_m": cell, "reference": reference})
     return rows
 
 
