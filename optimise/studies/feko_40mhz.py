@@ -29,12 +29,13 @@ class Case:
 
     preset: str
     engine: str
-    spacing: float
+    spacing: float  # the plate mesh (NEC, surface) or the FDTD cell (m)
     refine: tuple[float, int] = (0.0, 1)  # NEC only: a finer grid inside HALF_WIDTH
 
     def settings(self):
         # the sheet 5 mm up; NEC's production plate is at the same height (its default)
-        return engine_settings(self.engine, spacing=self.spacing, refine_centre=self.refine, plate_height=SHEET_HEIGHT)
+        return engine_settings(self.engine, spacing=self.spacing, cell=self.spacing, refine_centre=self.refine,
+                               plate_height=SHEET_HEIGHT)  # each engine takes what it has (fdtd: the cell)
 
     def label(self) -> str:
         return f"{self.preset}, {self.settings().label()}"
@@ -43,7 +44,8 @@ class Case:
 FEKO_CASES = [Case("square-10", "nec", sp) for sp in (1.0, 0.7, 0.5, 0.35, 0.25)] + [
     Case("square-10", "nec", 1.0, (2.0, 4)), Case("extended", "nec", 1.0), Case("extended", "nec", 0.5),
     Case("square-10", "surface", 0.7), Case("square-10", "surface", 0.5),
-    Case("sawtooth-20-16", "surface", 0.7), Case("extended", "surface", 0.7), Case("extended", "surface", 0.5)]
+    Case("sawtooth-20-16", "surface", 0.7), Case("extended", "surface", 0.7), Case("extended", "surface", 0.5),
+    Case("sawtooth-20-16", "fdtd", 0.075)]  # the referee (gprMax): a volume, time-domain model of the same plane
 ELEVATIONS = (90, 60, 45, 30, 20, 10, 5)
 ELEVATION_CUT_DEG = 10.0
 

@@ -27,6 +27,7 @@ from groundplane.errors import EngineError, SolveError
 from groundplane.files import atomic_path
 
 GPRMAX_ENV = "GROUNDPLANE_GPRMAX"
+GPRMAX_ARGS_ENV = "GROUNDPLANE_GPRMAX_ARGS"  # gprMax's own flags after the input file: "-gpu 0" runs on a GPU
 VERIFIED_VERSION = "4.0.1"  # the far-field transform over a layered background this engine relies on
 _STEP = re.compile(rb"(\d+)/(\d+) \[")
 
@@ -38,14 +39,22 @@ def gprmax_command() -> list[str]:
     return shlex.split(said) if said else [sys.executable, "-m", "gprMax"]
 
 
+def gprmax_args() -> list[str]:
+    """gprMax's own flags, put after the input file (``$GROUNDPLANE_GPRMAX_ARGS``: ``-gpu 0`` for
+    its CUDA solver, ``-cpu_precision double``, ...)."""
+    return shlex.split(os.environ.get(GPRMAX_ARGS_ENV, ""))
+
+
 def engine_info() -> dict[str, str]:
-    """gprMax's identity for the cache key (read from its distribution, never imported)."""
+    """gprMax's identity for the cache key (read from its distribution, never imported), with the
+    flags it runs with (a GPU or another precision is another model's numbers)."""
+    flags = {"args": " ".join(gprmax_args())} if gprmax_args() else {}
     if os.environ.get(GPRMAX_ENV, "").strip():
-        return {"engine": "gprmax", "version": "external", "command": os.environ[GPRMAX_ENV].strip()}
+        return {"engine": "gprmax", "version": "external", "command": os.environ[GPRMAX_ENV].strip(), **flags}
     try:
-        return {"engine": "gprmax", "version": metadata.version("gprMax")}
+        return {"engine": "gprmax", "version": metadata.version("gprMax"), **flags}
     except metadata.PackageNotFoundError:
-        return {"engine": "gprmax", "version": "not installed"}
+        return {"engine": "gprmax", "version": "not installed", **flags}
 
 
 def check_engine() -> None:
@@ -104,7 +113,7 @@ def run_gprmax(input_text: str, run_dir: Path, label: str, steps: int, progress:
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     with open(log, "wb") as sink:
         try:
-            proc = subprocess.Popen([*gprmax_command(), "model.in"], cwd=run_dir, stdout=subprocess.PIPE,
+            proc = subprocess.Popen([*gprmax_command(), "model.in", *gprmax_args()], cwd=run_dir, stdout=subprocess.PIPE,
                                     stderr=subprocess.STDOUT, env=env, preexec_fn=_die_with_parent)
         except OSError as exc:
             raise EngineError(f"could not start gprMax ({' '.join(gprmax_command())}): {exc}") from exc

@@ -132,3 +132,26 @@ def test_blade_over_pec_and_a_plate_on_soil(tmp_path, monkeypatch):
     assert np.allclose(1.0 - np.array(soil.meta["energy_balance"]), soil.ground_loss(), atol=1e-9)
     assert solver.cached(Design(Square(3.0), Soil()), [60.0, 80.0, 100.0]) is not None
     assert not any(tmp_path.glob("fdtd/*/model.h5"))  # the bulky output goes once the beam is cached
+
+
+def test_gprmax_flags_reach_the_run_and_the_cache_key(monkeypatch, tmp_path):
+    """$GROUNDPLANE_GPRMAX_ARGS (e.g. -gpu 0) goes after the input file, and a run with other flags
+    is another model: another cache key."""
+    solver = make_solver("fdtd", FdtdSettings(cell=0.1))
+    design = Design(None, FreeSpace())
+    plain = solver.cache_key(design, [80.0])
+    monkeypatch.setenv(fdtd_run.GPRMAX_ARGS_ENV, "-cpu_precision double")
+    assert solver.cache_key(design, [80.0]) != plain
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def popen(args, **kw):
+        seen["args"] = args
+        raise Stop
+
+    monkeypatch.setattr(fdtd_run.subprocess, "Popen", popen)
+    with pytest.raises(Stop):
+        fdtd_run.run_gprmax("#title: x\n", tmp_path / "run", "test", 10)
+    assert seen["args"][-3:] == ["model.in", "-cpu_precision", "double"]
