@@ -14,8 +14,7 @@ import pytest
 empymod_kernel = pytest.importorskip("empymod.kernel")
 
 from optimise.scenarios import SOIL_CORNERS  # noqa: E402
-from solvers.engines.surface.halfspace import (  # noqa: E402
-    C0, EPS0, MU0, charge_image, reflected_integrals, reflection, soil_permittivity)
+from solvers.engines.surface.halfspace import C0, EPS0, MU0, reflected_integrals, reflection, soil_permittivity  # noqa: E402
 
 SOILS = (*SOIL_CORNERS, (3.5, 0.02))  # the soil set: its four corners and MRO
 PLATE, BLADE = 0.005, 1.04  # the sheet's and the blade's heights (m)
@@ -58,34 +57,13 @@ def test_empymod_reflection_coefficients_are_the_engines():
 
 
 def _sommerfeld(rho: float, zeta: float, freq_hz: float, soil) -> tuple[complex, complex]:
-    """S(R_TE), S(R_q - K_q) from empymod's coefficients by scipy's adaptive quadrature: a
-    semi-ellipse into the first quadrant (clear of both branch points), then the real axis."""
-    from scipy.integrate import quad
-    from scipy.special import jv
+    """S(R_TE), S(R_q - K_q) from empymod's coefficients, by the adaptive contour quadrature of
+    test_rwg (a semi-ellipse into the first quadrant, clear of both branch points, then the real axis)."""
+    from .test_rwg import _contour_reference
 
     k0 = 2 * np.pi * freq_hz / C0
-    eps = soil_permittivity(*soil, freq_hz)
-    a, b = 1.5 * abs(np.sqrt(eps)) * k0 + k0, min(0.5 * k0, 1.0 / max(rho, 1e-9))
-
-    def integrand(kr, which):
-        rte, rq = empymod_kernels(kr, freq_hz, soil)
-        f = rte if which == 0 else rq - charge_image(eps)
-        kz0 = np.sqrt(k0 ** 2 - np.asarray(kr, complex) ** 2)
-        kz0 = np.where(kz0.imag > 0, -kz0, kz0)
-        return (f * np.exp(-1j * kz0 * zeta) * kr / (1j * kz0) * jv(0, kr * rho))[0]
-
-    def ellipse(t, which):
-        kr = a / 2 * (1 - np.cos(t)) + 1j * b * np.sin(t)
-        return integrand(kr, which) * (a / 2 * np.sin(t) + 1j * b * np.cos(t))
-
-    out = []
-    for which in (0, 1):
-        val = 0j
-        for fn, lo, hi in ((lambda t: ellipse(t, which), 0.0, np.pi), (lambda x: integrand(x, which), a, 60 / zeta)):
-            val += (quad(lambda x: fn(x).real, lo, hi, limit=2000)[0]
-                    + 1j * quad(lambda x: fn(x).imag, lo, hi, limit=2000)[0])
-        out.append(val)
-    return out[0], out[1]
+    return _contour_reference(rho, zeta, k0, soil_permittivity(*soil, freq_hz),
+                              spectral=lambda kr: empymod_kernels(kr, freq_hz, soil))
 
 
 # (height sum, distances): the plate's own interactions to 20 m (beyond it the adaptive reference

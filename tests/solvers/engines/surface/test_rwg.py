@@ -185,19 +185,22 @@ def test_galerkin_matrix_is_symmetric_and_stable_under_tiny_moves():
         assert abs(solve(Problem(moved, rwg_basis(moved), "free"), 72e6).input_impedance - zin) < 0.01 * abs(zin)
 
 
-def _contour_reference(rho: float, zeta: float, k0: float, eps: complex) -> tuple[complex, complex]:
+def _contour_reference(rho: float, zeta: float, k0: float, eps: complex, spectral=None) -> tuple[complex, complex]:
     """S(R_TE), S(R_q - K_q) by scipy's adaptive quadrature along a different path: a
     semi-ellipse into the first quadrant (away from both branch points), then the real
-    axis; an independent check of the real-axis substitution rule."""
+    axis; an independent check of the real-axis substitution rule. ``spectral(kr)`` gives
+    (R_TE, R_q) at complex krho: the engine's ``reflection`` unless another code's is given
+    (test_kernels_empymod)."""
     from scipy.integrate import quad
     from scipy.special import jv
 
     from solvers.engines.surface.halfspace import charge_image, reflection
 
+    spectral = spectral or (lambda kr: reflection(kr, k0, eps))
     a, b = 1.5 * abs(np.sqrt(eps)) * k0 + k0, min(0.5 * k0, 1.0 / max(rho, 1e-9))
 
     def integrand(kr, which):
-        rte, rq = reflection(np.atleast_1d(kr), k0, eps)
+        rte, rq = spectral(np.atleast_1d(kr))
         f = rte if which == 0 else rq - charge_image(eps)
         kz0 = np.sqrt(k0 ** 2 - kr ** 2 + 0j)
         kz0 = np.where(kz0.imag > 0, -kz0, kz0)
