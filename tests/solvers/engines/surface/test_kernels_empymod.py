@@ -84,3 +84,20 @@ def test_reflected_kernels_against_empymod(freq, soil):
             ref_a, ref_q = _sommerfeld(rho, zeta, freq, soil)
             assert abs(a[i] - ref_a) < 1e-4 * max(1.0, abs(ref_a)), (rho, zeta, a[i], ref_a)
             assert abs(q[i] - ref_q) < 1e-4 * max(1.0, abs(ref_q)), (rho, zeta, q[i], ref_q)
+
+
+if __name__ == "__main__":  # the worst errors over every case (docs/fdtd.md): python -m tests.solvers...test_kernels_empymod
+    worst: dict[str, tuple] = {}
+    for freq in (40e6, 70e6, 100e6):
+        for soil in SOILS:
+            k0, eps = 2 * np.pi * freq / C0, soil_permittivity(*soil, freq)
+            for zeta, rhos in CASES:
+                got = reflected_integrals(np.array(rhos), k0, eps, zeta, rho_max=60.0)
+                for i, rho in enumerate(rhos):
+                    for name, value, ref in zip(("S(R_TE)", "S(R_q - K_q)"), (g[i] for g in got),
+                                                _sommerfeld(rho, zeta, freq, soil)):
+                        err = abs(value - ref) / max(1.0, abs(ref))
+                        if err > worst.get(name, (0.0,))[0]:
+                            worst[name] = (err, freq / 1e6, soil, zeta, rho)
+    for name, (err, f, soil, zeta, rho) in worst.items():
+        print(f"{name}: worst {err:.2e} of max(1, |S|) at {f:g} MHz, soil {soil}, height sum {zeta:g} m, {rho:g} m apart")
