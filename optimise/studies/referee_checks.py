@@ -2,7 +2,8 @@
 must radiate what it takes in), the blade over PEC against the surface engine (where both are
 right, to the FoM), the absorbing layer's depth, and on a small plate over MRO soil the cell-size
 ladder (10 / 7.5 / 5 cm) and the plate on the soil against one cell above it (the surface engine's
-5 mm sheet lies between). The FEKO 40 MHz comparison is a row of ``study feko-40mhz``."""
+5 mm sheet lies between), and a ladder on a toothed plane (sawtooth-10-8), whose outline the grid
+staircases. The FEKO 40 MHz comparison is a row of ``study feko-40mhz``."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -25,6 +26,8 @@ BAND = np.asarray(parse_freqs("55:97:2"), float)  # the referee's frequencies
 PEC_FREQS = np.arange(40.0, 101.0, 2.0)
 PLATE = "square-10"
 LADDER = (0.1, 0.075, 0.05)
+TOOTHED = "sawtooth-10-8"  # a toothed outline, staircased by the grid where square-10's edges lie along it
+TOOTHED_LADDER = (0.075, 0.05)
 
 
 @dataclass(frozen=True)
@@ -51,6 +54,9 @@ def checks() -> list[Check]:
                   surface, BAND) for c in LADDER]
     out += [Check(f"{PLATE} on MRO soil", "fdtd 7.5 cm, plate one cell above", plate,
                   FdtdSettings(cell=0.075, plate_position="above"), surface, BAND)]
+    toothed = Design(PRESETS[TOOTHED], Soil())
+    out += [Check(f"{TOOTHED} on MRO soil", f"fdtd {c * 100:g} cm, plate on the soil", toothed, FdtdSettings(cell=c),
+                  surface, BAND) for c in TOOTHED_LADDER]
     return out
 
 
@@ -81,14 +87,16 @@ def _reading(rows: list[dict]) -> list[str]:
         out.append(f"- Blade over PEC, {r['model']}: FoM {r['fom_mk']:.1f} mK against the surface engine's "
                    f"{r['surface_fom_mk']:.1f} ({100 * r['fom_change']:+.1f} %), gain {r['rms_db_mean']:.3f} dB rms: "
                    + verdict(abs(r["fom_change"]) < 0.05, "agrees.", "**does not agree** at the FoM level."))
-    ladder = [r for r in rows if r["case"].startswith(PLATE) and "on the soil" in r["model"]]
-    if len(ladder) >= 2:
-        foms = [r["fom_mk"] for r in ladder]
-        step = abs(foms[-1] / foms[-2] - 1)
-        out.append(f"- Cell ladder on {PLATE}: FoM " + " / ".join(f"{f:.1f}" for f in foms) + " mK at "
-                   + " / ".join(r["model"].split(",")[0].removeprefix("fdtd ") for r in ladder)
-                   + f"; the last step moves it {100 * step:.1f} % (" + verdict(step < 0.05, "converged to 5 %",
-                                                                           "**not converged** to 5 %") + ").")
+    for plate in (PLATE, TOOTHED):
+        ladder = [r for r in rows if r["case"].startswith(plate) and "on the soil" in r["model"]]
+        if len(ladder) >= 2:
+            foms = [r["fom_mk"] for r in ladder]
+            step = abs(foms[-1] / foms[-2] - 1)
+            out.append(f"- Cell ladder on {plate}: FoM " + " / ".join(f"{f:.1f}" for f in foms) + " mK at "
+                       + " / ".join(r["model"].split(",")[0].removeprefix("fdtd ") for r in ladder)
+                       + f" (the surface engine {ladder[-1]['surface_fom_mk']:.1f}); the last step moves it "
+                       f"{100 * step:.1f} % (" + verdict(step < 0.05, "converged to 5 %", "**not converged** to 5 %")
+                       + ").")
     above = by.get((f"{PLATE} on MRO soil", "fdtd 7.5 cm, plate one cell above"))
     on = by.get((f"{PLATE} on MRO soil", "fdtd 7.5 cm, plate on the soil"))
     if above and on:
