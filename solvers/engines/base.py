@@ -20,7 +20,7 @@ import numpy as np
 
 from groundplane.beam import Beam
 from groundplane.design import Design
-from groundplane.errors import SettingsError, SolveError, SolverError
+from groundplane.errors import SettingsError, SolveError, SolverError, UserInputError
 from groundplane.options import option, parse_freqs
 
 from .patterns import mirror_quadrant
@@ -394,7 +394,7 @@ class Solver(ABC):
                                          f"{unguarded_main_script() or 'out of memory?'})") from exc
                     print(f"{design.label()}: a {self.name} worker process died; retrying the {len(left)} "
                           "unsolved frequencies once", file=sys.stderr)
-        except SolveError:
+        except (SolveError, UserInputError):  # a user's mistake found inside a job stays one (exit 2)
             raise
         except SolverError as exc:
             raise SolveError(f"{design.label()}: {exc}") from exc

@@ -96,9 +96,10 @@ def soil_layer_depth(soil: Soil, f_min_hz: float) -> float:
     alpha = soil_attenuation(soil, f_min_hz)
     depth = math.log(1 / PEC_UNSEEN) / (2 * alpha) if alpha > 0 else math.inf
     if depth > MAX_SOIL_LAYER_M:
+        need = "an endless layer" if math.isinf(depth) else f"{depth:.0f} m of soil at {f_min_hz / 1e6:g} MHz"
         raise SettingsError(f"soil eps_r={soil.eps_r} sigma={soil.sigma} S/m is too nearly lossless for the fdtd far "
-                            f"field (its half-space is a layer over PEC, which would need {depth:.0f} m of soil at "
-                            f"{f_min_hz / 1e6:g} MHz to hide the floor); use sigma >= 0.001 S/m")
+                            f"field (its half-space is a layer over PEC, which would need {need} to hide the "
+                            "floor); use sigma >= 0.001 S/m")
     return max(5.0, depth)
 
 
@@ -264,6 +265,17 @@ def _heights(ground: str, settings: FdtdSettings, dx: float, gap: int, has_plane
         return 0, max(1, round(0.005 / dx)) if has_plane else 0, 0, (pml, pml, 0, pml, pml, pml)
     k_plate = pml + gap + below
     return 0, k_plate, k_plate - below, (pml,) * 6
+
+
+def estimated_cells(design: Design, settings: FdtdSettings) -> int:
+    """The grid's cells from the outline's bounds alone (before anything is rasterised), within a
+    few per cent of :func:`build_model`'s: what a memory check needs first."""
+    dx = settings.cell
+    x0, y0, x1, y1 = design.plane.outline().bounds if design.plane is not None else (-1.0, -0.7, 1.0, 0.7)
+    edge = 2 * (settings.pml_cells + 3 + max(3, math.ceil(0.25 / dx)))
+    nz = 2 * settings.pml_cells + 6 + max(3, math.ceil(0.3 / dx)) + max(4, math.ceil(0.5 / dx)) + \
+        round(design.antenna.height / dx)
+    return int(((x1 - x0) / dx + edge) * ((y1 - y0) / dx + edge) * nz)
 
 
 def build_model(design: Design, settings: FdtdSettings, f_max_hz: float = 100e6, quadrant: bool = False) -> FdtdModel:

@@ -23,7 +23,7 @@ from ..base import Plan, Solver, register_engine
 from ..patterns import to_one_degree, upper_mean_gain
 from ..workers import available_memory_bytes
 from . import run
-from .model import FAR_FIELD_STEP, FdtdModel, FdtdSettings, build_model
+from .model import BYTES_PER_CELL, FAR_FIELD_STEP, FdtdModel, FdtdSettings, build_model, estimated_cells
 
 MODEL_VERSION = 1  # bump when the model changes: the cache key includes it
 
@@ -127,6 +127,12 @@ class FdtdSolver(Solver):
         return None
 
     def plan(self, design: Design) -> Plan:
+        cells = estimated_cells(design, self.settings)
+        have = available_memory_bytes()
+        if have is not None and BYTES_PER_CELL * cells > 0.8 * have:  # refused before anything is rasterised
+            raise SettingsError(f"{design.label()}: about {cells / 1e6:.0f} M cells of {self.settings.cell:g} m need "
+                                f"over {BYTES_PER_CELL * cells / 2**30:.0f} GiB; {have / 2**30:.1f} GiB is available. "
+                                "Use a coarser --cell.")
         model = self.model(design)
         check_memory(model, 1, design.label())
         what = design.plane.describe() if design.plane else "blade"

@@ -155,3 +155,22 @@ def test_gprmax_flags_reach_the_run_and_the_cache_key(monkeypatch, tmp_path):
     with pytest.raises(Stop):
         fdtd_run.run_gprmax("#title: x\n", tmp_path / "run", "test", 10)
     assert seen["args"][-3:] == ["model.in", "-cpu_precision", "double"]
+
+
+def test_a_grid_past_the_machine_is_refused_before_it_is_drawn(monkeypatch):
+    """square-30 at 5 mm is 15 billion cells: refused from the outline's bounds, before any cell is
+    rasterised (that alone would take minutes and gigabytes)."""
+    import solvers.engines.fdtd.solver as fdtd_solver
+
+    monkeypatch.setattr(fdtd_solver, "build_model", lambda *a, **k: pytest.fail("rasterised before the check"))
+    solver = make_solver("fdtd", FdtdSettings(cell=0.005), use_cache=False)
+    with pytest.raises(SettingsError, match=r"M cells of 0.005 m need over .* GiB; .* available. Use a coarser --cell"):
+        solver.plan(Design(PRESETS["square-30"], Soil()))
+
+
+def test_a_user_error_found_in_the_run_stays_a_user_error(monkeypatch):
+    """A lossless soil is refused as the user's mistake (exit 2 from the CLI), not as a failed solve."""
+    monkeypatch.setenv(fdtd_run.GPRMAX_ENV, "false")  # never reached
+    solver = make_solver("fdtd", FdtdSettings(cell=0.1), use_cache=False)
+    with pytest.raises(SettingsError, match="too nearly lossless .* an endless layer"):
+        solver.solve(Design(Square(3.0), Soil(3.5, 0.0)), [60.0])
