@@ -27,7 +27,7 @@ from solvers.engines import make_solver
 
 from ..provenance import write_md
 from . import StudyOption, study
-from ._common import engine_settings, fom_and_binned_mk, solve, verdict, write_csv
+from ._common import cached, engine_settings, fom_and_binned_mk, solve, verdict, write_csv
 
 ENGINES = ("surface", "nec", "fdtd")
 SOILS = {"MRO": Soil(paper.MRO_EPS_R, paper.MRO_SIGMA_S_PER_M), "dry": Soil(2.5, 0.005)}
@@ -61,8 +61,9 @@ def referee_cases(candidate: GroundPlane, candidate_name: str, reference: str) -
     return out + [RefereeCase(name, preset(name), "MRO") for name in TABLE3_CASES]
 
 
-def _fdtd_beam(case: RefereeCase, settings, freqs: np.ndarray, beams: Path) -> Beam:
-    """The FDTD beam: the one kept beside the report when its cache key is this solve's, else solved."""
+def _fdtd_beam(case: RefereeCase, settings, freqs: np.ndarray, beams: Path, cached_only: bool = False) -> Beam | None:
+    """The FDTD beam: the one kept beside the report when its cache key is this solve's, else the
+    cache's, else solved (None with ``cached_only``)."""
     solver = make_solver("fdtd", settings, progress=True)
     key = solver.cache_key(case.design, freqs)
     kept = beams / f"{case.slug}.npz"
@@ -73,6 +74,8 @@ def _fdtd_beam(case: RefereeCase, settings, freqs: np.ndarray, beams: Path) -> B
                 return beam
         except BeamFormatError:
             pass
+    if cached_only:
+        return solver.cached(case.design, freqs)
     beam, _ = solve(case.design, settings, freqs)
     beams.mkdir(parents=True, exist_ok=True)
     beam.save(kept)
@@ -96,13 +99,19 @@ def _bins(beam: Beam) -> np.ndarray:
     return 1e3 * figure_of_merit(beam, FomSettings().every_lst()).in_lst_bins(paper.DATA_LST_BIN_HOURS).fom
 
 
-def _run_case(case: RefereeCase, freqs: np.ndarray, cell: float, beams: Path) -> tuple[list, list, list]:
-    """(rows per engine, gain differences per pair and frequency, FoM per LST bin) of one case."""
+def _run_case(case: RefereeCase, freqs: np.ndarray, cell: float, beams: Path,
+              cached_only: bool = False) -> tuple[list, list, list] | None:
+    """(rows per engine, gain differences per pair and frequency, FoM per LST bin) of one case; None
+    when ``cached_only`` and some engine has not solved it."""
     solved = {}
     for engine in ENGINES:
         settings = engine_settings(engine, cell=cell)
-        solved[engine] = _fdtd_beam(case, settings, freqs, beams) if engine == "fdtd" else \
-            solve(case.design, settings, freqs)[0]
+        if engine == "fdtd":
+            solved[engine] = _fdtd_beam(case, settings, freqs, beams, cached_only)
+        else:
+            solved[engine] = cached(case.design, settings, freqs) if cached_only else solve(case.design, settings, freqs)[0]
+    if any(b is None for b in solved.values()):
+        return None
     rows = [{"case": case.name, "soil": case.soil_name, "engine": e, **_summary(b)} for e, b in solved.items()]
     diffs = []
     for a, b in (("surface", "fdtd"), ("nec", "fdtd"), ("surface", "nec")):
@@ -161,7 +170,7 @@ def _side_reading(rows: list[dict]) -> list[str]:
     cases = sorted({(r["case"], r["soil"]) for r in rows if r["engine"] == "fdtd"})
     nearer = []
     for case, soil in cases:
-        f, s, n = (_row(rows, case, soil, e) for e in ENGINES)
+        s, n, f = (_row(rows, case, soil, e) for e in ("surface", "nec", "fdtd"))
         if s and n and f:
             nearer.append("surface" if abs(f["fom_mk"] - s["fom_mk"]) <= abs(f["fom_mk"] - n["fom_mk"]) else "nec")
     if not nearer:
@@ -238,22 +247,26 @@ def _figure(bins: list[dict], path: Path) -> None:
 
 
 def referee(out: Path, command: str, candidate: GroundPlane, candidate_name: str, reference: str = "sawtooth-20-16",
-            freqs: np.ndarray | None = None, cell: float = DEFAULT_CELL) -> list[dict]:
+            freqs: np.ndarray | None = None, cell: float = DEFAULT_CELL, cached_only: bool = False) -> list[dict]:
     """Solve every case on the three engines (cached; FDTD beams kept in ``out/beams``), rewriting
-    the report after each; the rows."""
+    the report after each; the rows. ``cached_only``: report the cases already solved, name the rest."""
     freqs = np.asarray(parse_freqs(DEFAULT_FREQS) if freqs is None else freqs, float)
     cases = referee_cases(candidate, candidate_name, reference)
     rows: list[dict] = []
     diffs: list[dict] = []
     bins: list[dict] = []
+    missing: list[RefereeCase] = []
     for i, case in enumerate(cases):
-        r, d, b = _run_case(case, freqs, cell, out / "beams")
-        rows, diffs, bins = rows + r, diffs + d, bins + b
+        got = _run_case(case, freqs, cell, out / "beams", cached_only)
+        if got is None:
+            missing.append(case)
+        else:
+            rows, diffs, bins = rows + got[0], diffs + got[1], bins + got[2]
         write_csv(out / "referee.csv", rows)
         write_csv(out / "gain_differences.csv", diffs)
         write_csv(out / "fom_bins.csv", bins)
         _figure(bins, out / "referee.png")
-        write_md(out / "referee.md", _report(rows, diffs, _margins(rows, candidate_name, reference), cases[i + 1:],
+        write_md(out / "referee.md", _report(rows, diffs, _margins(rows, candidate_name, reference), missing + cases[i + 1:],
                                              candidate_name, reference, freqs, cell), "study referee", command,
                  {"freqs_mhz": [float(f) for f in freqs], "fdtd_cell_m": cell, "reference": reference})
     return rows
@@ -284,10 +297,12 @@ def _needs_design(extra: dict) -> None:
                             metavar="NAME", check=lambda n: preset(n) and n),
                 StudyOption("--freqs", "freqs", f"frequencies (default {DEFAULT_FREQS}: the fit band every 2 MHz)",
                             parse_freqs, "LO:HI:STEP"),
-                StudyOption("--cell", "cell", f"the FDTD cell (m, default {DEFAULT_CELL})", float, "M", check=_cell)),
+                StudyOption("--cell", "cell", f"the FDTD cell (m, default {DEFAULT_CELL})", float, "M", check=_cell),
+                StudyOption("--cached-only", "cached_only", "report the cases already solved and name the rest (a "
+                            "long run's progress, without solving)", switch=True)),
        validate=_needs_design)
 def _run(out: Path, settings, command: str, design: Path | None = None, reference: str = "sawtooth-20-16",
-         freqs=None, cell: float = DEFAULT_CELL) -> None:
+         freqs=None, cell: float = DEFAULT_CELL, cached_only: bool = False) -> None:
     plane = from_file(design)
-    for r in referee(out, command, plane, design.stem, reference, freqs, cell):
+    for r in referee(out, command, plane, design.stem, reference, freqs, cell, cached_only):
         print(f"{r['case']:28s} {r['soil']:4s} {r['engine']:8s} {r['fom_mk']:8.1f} mK  loss {r['loss_max_percent']:.3f} %")

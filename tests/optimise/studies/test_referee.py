@@ -10,7 +10,7 @@ from optimise.studies import STUDIES, referee
 
 def _fake_case(foms: dict):
     """_run_case stand-in: FoM per (case name, soil, engine) from ``foms``."""
-    def run(case, freqs, cell, beams):
+    def run(case, freqs, cell, beams, cached_only=False):
         rows = [{"case": case.name, "soil": case.soil_name, "engine": e, "fom_mk": foms[(case.name, case.soil_name, e)],
                  "fom_every_lst_mk": 2 * foms[(case.name, case.soil_name, e)], "loss_55_percent": 0.4,
                  "loss_max_percent": 0.5, "s11_max_db": -6.0, "s11_min_db": -20.0} for e in referee.ENGINES]
@@ -46,6 +46,10 @@ def test_the_verdict_follows_the_rows(tmp_path, monkeypatch, star_mro, beats):
     assert "nearer the **surface** engine's" in mro if beats else "nearer the **nec** engine's" in mro
     assert "- square-30: FDTD 180.0 mK" in text and "sides with **the paper**" in text  # 180 is nearer 192
     assert "plus-30" in text and "sides with **the surface engine**" in text  # 118 is nearer 114 than 181
+    # FDTD / surface / NEC: sawtooth 110 / 109 / 124 on both soils and the star on dry 85 / 81 / 132 are nearer the
+    # surface engine; square-30 180 / 117 / 130 and plus-30 118 / 114 / 120 nearer NEC-2; the star on MRO either way
+    near = 4 if beats else 3
+    assert f"nearer the surface engine's in {near} of 6 cases and NEC-2's in {6 - near}" in text
     assert (tmp_path / "referee.png").exists() and (tmp_path / "fom_bins.csv").exists()
     assert "Not run yet" not in text
 
@@ -65,6 +69,16 @@ def test_a_partial_run_says_what_is_still_to_run(tmp_path, monkeypatch):
     text = (tmp_path / "referee.md").read_text()
     assert "Not run yet" in text and "sawtooth-20-16 on dry" in text and "plus-30 on MRO" in text
     assert "- On MRO soil" in text  # both designs on MRO landed: its verdict is there
+
+
+def test_cached_only_reports_what_landed_and_names_the_rest(tmp_path, monkeypatch):
+    landed = _fake_case(_foms(85.0))
+    monkeypatch.setattr(referee, "_run_case", lambda case, *a: landed(case, *a) if case.soil_name == "MRO"
+                        and case.name in ("sawtooth-20-16", "star") else None)
+    referee.referee(tmp_path, "cmd", Square(20.0), "star", freqs=np.arange(55, 98, 2.0), cached_only=True)
+    text = (tmp_path / "referee.md").read_text()
+    assert "- On MRO soil" in text and "- On dry soil" not in text
+    assert "Not run yet" in text and "sawtooth-20-16 on dry, star on dry, square-30 on MRO, plus-30 on MRO" in text
 
 
 def test_the_study_needs_a_candidate():
