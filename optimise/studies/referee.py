@@ -216,6 +216,7 @@ def _report(rows, diffs, margins, pending, candidate, reference, freqs, cell) ->
              "S11 worst (dB) |", "|---|---|---|---|---|---|---|---|"]
     lines += [f"| {r['case']} | {r['soil']} | {r['engine']} | {r['fom_mk']:.1f} | {r['fom_every_lst_mk']:.1f} | "
               f"{r['loss_55_percent']:.3f} | {r['loss_max_percent']:.3f} | {r['s11_max_db']:.1f} |" for r in rows]
+    lines += ["", "![FoM per 2 h LST bin, each engine](referee.png)"]
     lines += ["", "## Gain differences between the engines", ""] + _diff_table(diffs)
     lines += ["", "## Reading (computed from the rows)", ""]
     lines += _margin_reading(margins, candidate, reference) + _side_reading(rows) + _table3_reading(rows)
