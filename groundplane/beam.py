@@ -19,7 +19,7 @@ import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -169,7 +169,31 @@ class Beam:
         if hemi.phi_deg.size < 4 or gaps.max() > 1.5 * np.median(gaps):
             raise GroundLossUndefined(f"{src}: the beam must cover the full circle of azimuth for its ground loss "
                                       "(FEKO quadrant files: `groundplane convert` them into one beam first)")
-        return 1.0 - hemi.upper_hemisphere_share()
+        try:
+            return 1.0 - self.checked_share()
+        except BeamFormatError as exc:  # no loss to report, though the beam may still be scored normalised
+            raise GroundLossUndefined(str(exc)) from None
+
+    #: the widest upper-hemisphere share a gain normalised to any power can have: 1 for a lossless
+    #: model over PEC; the margin is quadrature and an engine's own balance, not physics
+    MAX_SHARE: ClassVar[float] = 1.25
+    #: the narrowest: a ground that absorbs 99 % of what the antenna takes in is not a ground plane's
+    MIN_SHARE: ClassVar[float] = 0.01
+
+    def checked_share(self) -> np.ndarray:
+        """:meth:`upper_hemisphere_share`, refused (:class:`BeamFormatError`) where it says the gain
+        is on no power's scale (above :attr:`MAX_SHARE` or below :attr:`MIN_SHARE`): a beam x1e5
+        scored 19 067 271 mK and a -8 184 008 % ground loss; x1e-300 scored 0.00 mK."""
+        share = self.upper_hemisphere_share()
+        bad = np.flatnonzero((share > self.MAX_SHARE) | (share < self.MIN_SHARE))
+        if bad.size:
+            i = int(bad[0])
+            raise BeamFormatError(
+                f"{self.meta.get('source', 'beam')}: the gain's integral over the upper hemisphere is {share[i]:.3g} x 4 pi "
+                f"at {self.freqs_mhz[i]:g} MHz ({bad.size} of {share.size} frequencies outside {self.MIN_SHARE:g}-"
+                f"{self.MAX_SHARE:g}): a linear power gain normalised to any power gives 1 over PEC and 1/2 in free "
+                "space; is it in dB, or scaled?")
+        return share
 
     def upper_hemisphere_share(self) -> np.ndarray:
         """(1/4 pi) int over theta <= 90 deg of G dOmega per frequency, by the cell areas of

@@ -330,7 +330,10 @@ def fit_band_mask(freqs_mhz: np.ndarray, band: tuple[float, float], n_terms: int
     and look less chromatic than it is."""
     lo, hi = band
     f = np.asarray(freqs_mhz, dtype=float)
-    step = float(np.max(np.diff(f))) if f.size > 1 else 0.0
+    # the beam's own step where it is scored: a hole outside the band (40-49 then 55-95 MHz) must not
+    # widen the tolerance at the band's edges (it let a beam cut at 95 MHz score as 55-97)
+    near = np.sort(f[(f >= lo - 1e-9) & (f <= hi + 1e-9)])
+    step = float(np.median(np.diff(near))) if near.size > 1 else (float(np.max(np.diff(f))) if f.size > 1 else 0.0)
     if f.size and (f.min() > lo + step + 1e-9 or f.max() < hi - step - 1e-9):
         missing = [f"{lo:g}-{min(f.min(), hi):g}" if f.min() > lo + step + 1e-9 else None,
                    f"{max(f.max(), lo):g}-{hi:g}" if f.max() < hi - step - 1e-9 else None]
@@ -404,6 +407,8 @@ def smoothing_matrix(freqs_mhz: np.ndarray, degree: int) -> np.ndarray:
 def figure_of_merit_check(beam: Beam, settings: FomSettings) -> None:
     """What refuses a beam before the sky is built: one it cannot cover (a FEKO quadrant) or fit."""
     _hemisphere(beam)
+    if not settings.normalise:  # T_ant scales with the gain: one on no power's scale scores anything
+        beam.checked_share()
     fit_band_mask(beam.freqs_mhz, settings.fit_band_mhz, settings.n_terms)
 
 

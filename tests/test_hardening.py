@@ -42,7 +42,8 @@ def test_holes_at_the_fit_bands_edges_are_seen(tmp_path, example, capsys):
     assert main(["fom", path, "--n-lst", "24"]) == 2
 
 
-@pytest.mark.parametrize("scale,normalise,match", [(1e300, False, "overflows"), (0.0, False, "zero over the whole"),
+@pytest.mark.parametrize("scale,normalise,match", [(1e300, False, "is it in dB, or scaled?"),  # issue 64's scale check
+                                                   (1e300, True, "overflows"), (0.0, False, "is it in dB, or scaled?"),
                                                    (0.0, True, "zero over the whole")])
 def test_degenerate_gains_are_refused(tmp_path, example, capsys, scale, normalise, match):
     path = _variant(tmp_path, example, scale=scale)
