@@ -75,6 +75,8 @@ BEAM_META: dict[str, MetaParameter] = {
                                  per_frequency=True),
     "interpolated": _p("the frequency was not solved but filled from the solved ones (an engine's solve_every)", bool,
                        per_frequency=True),
+    "mesh_note": _p("why the engine's mesh is coarser than it recommends for the beam's top frequency (reports "
+                    "show it)", str),
     "frequency_fill": _p("how the unsolved frequencies were filled: solve_every, method, solved (count) and "
                          "leave_out_db (the fill's error estimated from the solved frequencies alone)", dict),
     # what was done to it

@@ -57,7 +57,7 @@ def score(plane: GroundPlane | str, *, scenarios: str = "soil", aggregate: str |
     Examples
     --------
     >>> import groundplane as gp
-    >>> row = gp.score("square-10", scenarios="nominal", max_loss=None, mesh=2.0)  # doctest: +SKIP
+    >>> row = gp.score("square-10", scenarios="nominal", max_loss=None, mesh=1.5)  # doctest: +SKIP
     >>> round(row["lst_averaged_fom_mk"])  # doctest: +SKIP
     234
     """
@@ -96,7 +96,7 @@ def optimise(shape: str, max_area: float, out_dir: str | Path, *, budget: int = 
     --------
     >>> import groundplane as gp
     >>> res = gp.optimise("square", 200.0, "out/opt", budget=4, scenarios="nominal", max_loss=None,
-    ...                   mesh=2.0, freqs="55:97:4")  # doctest: +SKIP
+    ...                   mesh=1.5, freqs="55:97:4")  # doctest: +SKIP
     >>> res.best["params"]  # doctest: +SKIP
     {'side': 14.1}
     """

@@ -226,6 +226,7 @@ def score(candidate: Candidate, beam: Beam, settings: EvalSettings, seconds: flo
         "ground_loss": None if loss is None else loss.round(8).tolist(),
         "max_ground_loss": None if loss is None else largest_in_band(beam.freqs_mhz, loss, settings.fom.fit_band_mhz),
         **({"ground_loss_note": loss_note} if loss_note else {}),
+        **({"mesh_note": beam.meta["mesh_note"]} if beam.meta.get("mesh_note") else {}),
         "freqs_mhz": beam.freqs_mhz.tolist(),
         "solve_s": round(seconds, 2),
         # what the solve cost, from the beam's own per-frequency timings: a cache hit has

@@ -85,7 +85,8 @@ def write_report(rows: list[dict[str, Any]], out_dir: str | Path, title: str = "
     header, cells = _ranking(ok)
     bad = [r for r in rows if r.get("status") != "ok"]
     notes = ([MESH_NOTE] if any(r.get("shape") != "beam-file" for r in ok) else []) + \
-        ([note] if (note := _sets_note(rows)) else [])
+        ([note] if (note := _sets_note(rows)) else []) + \
+        sorted({f"**Coarse mesh**: {r['mesh_note']}." for r in ok if r.get("mesh_note")})
     md = [provenance.header("report", invocation()), f"# {title}", ""]
     if preamble:
         md += [preamble, ""]

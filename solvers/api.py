@@ -79,7 +79,7 @@ def solve(plane: GroundPlane | str | Design | None, *, ground: str = "soil", pro
     Examples
     --------
     >>> import groundplane as gp
-    >>> beam = gp.solve("square-10", freqs="55:97:21", mesh=2.0, blade_cells=(4, 4))  # doctest: +SKIP
+    >>> beam = gp.solve("square-10", freqs="55:97:21", mesh=1.5, blade_cells=(4, 4))  # doctest: +SKIP
     >>> beam.freqs_mhz.tolist()  # doctest: +SKIP
     [55.0, 76.0, 97.0]
     """
@@ -105,7 +105,7 @@ def solve_soils(plane: GroundPlane | str, soils: Sequence[Soil | tuple[float, fl
     Examples
     --------
     >>> import groundplane as gp
-    >>> dry, mro = gp.solve_soils("square-10", [(2.5, 0.005), (3.5, 0.02)], freqs="55:97:21", mesh=2.0,
+    >>> dry, mro = gp.solve_soils("square-10", [(2.5, 0.005), (3.5, 0.02)], freqs="55:97:21", mesh=1.5,
     ...                           blade_cells=(4, 4))  # doctest: +SKIP
     >>> dry.freqs_mhz.tolist()  # doctest: +SKIP
     [55.0, 76.0, 97.0]

@@ -58,3 +58,34 @@ def test_a_gain_scale_check_leaves_real_beams_and_normalised_scoring_alone(tmp_p
     scaled = Beam.load(_variant(tmp_path, example, scale=1e5))
     assert gp.fom(scaled, n_lst=24, normalise=True).lst_averaged_mk == pytest.approx(
         gp.fom(example, n_lst=24, normalise=True).lst_averaged_mk, rel=1e-9)
+
+
+# 1 -------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("engine,mesh", [("nec", "3.0"), ("surface", "3.0"), ("nec", "2.0")])
+def test_a_mesh_below_two_cells_per_wavelength_is_refused_before_any_work(engine, mesh, capsys):
+    """NEC-2 at 3.0 m scored square-10 at 8862.8 mK (1244.7 at 2.0, 169.7 at 1.0; ~220 at 0.5); the
+    surface engine 510.5 at 3.0 m against 231.9; `optimise --mesh 2.0` ranked designs on such numbers."""
+    argv = ["solve", "--engine", engine, "--preset", "square-10", "--mesh", mesh, "--freqs", "55:97:4", "-o", "x.npz"]
+    assert main(argv) == 2
+    assert "cells per wavelength at 95 MHz, below this engine's floor of 2" in _err(capsys)
+
+
+def test_a_mesh_between_the_floor_and_the_recommended_is_noted_in_the_beam_and_the_reports(tmp_path, example, capsys):
+    from groundplane.design import Design, InfinitePEC, Soil
+    from groundplane.shapes import preset
+    from optimise.report import write_report
+    from solvers.engines import make_solver
+    from solvers.engines.nec import NecSettings
+
+    design = Design(preset("square-10"), Soil())
+    note = make_solver("nec", NecSettings(spacing=1.0)).mesh_note(design, np.array([55.0, 97.0]))
+    assert note.startswith("nec mesh 1 m is 3.1 cells per wavelength at 97 MHz (recommended >= 6")
+    assert make_solver("nec", NecSettings(spacing=0.5)).mesh_note(design, np.array([55.0, 97.0])) is None
+    assert make_solver("nec", NecSettings(spacing=1.0)).mesh_note(Design(None, InfinitePEC()), np.array([97.0])) is None
+    path = tmp_path / "noted.npz"
+    example.with_meta(mesh_note=note).save(path)
+    assert main(["fom", str(path), "--n-lst", "24"]) == 0
+    assert f"note: {note}" in capsys.readouterr().out
+    paths = write_report([{"name": "a", "status": "ok", "shape": "square", "params": {"side": 10.0}, "lst_averaged_fom_mk": 1.0,
+                           "metal_area_m2": 100.0, "extent_m": 10.0, "mesh_note": note}], tmp_path / "rep")
+    assert f"**Coarse mesh**: {note}" in paths["md"].read_text()

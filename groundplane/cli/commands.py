@@ -81,6 +81,8 @@ def _run_fom(args: argparse.Namespace) -> int:
           f"max {result.fom.max() * 1e3:.1f} mK at LST {result.lst_hours[result.fom.argmax()]:.1f} h; "
           f"fit {settings.fit_band_mhz[0]:g}-{settings.fit_band_mhz[1]:g} MHz, {settings.n_terms}-term LinLog"
           + (f", spectra averaged in {settings.lst_bin_hours:g} h LST bins" if settings.lst_bin_hours else ""))
+    if beam.meta.get("mesh_note"):
+        print(f"  note: {beam.meta['mesh_note']}")
     if args.metrics:
         print("  " + loss_line(beam, loss, note, settings.fit_band_mhz))
         from ..s11 import db, input_impedance, reflection

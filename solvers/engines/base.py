@@ -201,6 +201,36 @@ class Solver(ABC):
         """How big the solved model was, in the engine's own unit, from a beam's meta."""
         return f"{meta.get('n_' + self.size_unit, '?')} {self.size_unit}"
 
+    #: (floor, recommended) cells of the plane's mesh per free-space wavelength at the top frequency:
+    #: below the floor a solve is refused, between the two its beam carries a ``mesh_note``
+    cells_per_wavelength: ClassVar[tuple[float, float]] = (2.0, 6.0)
+
+    def mesh_cell_m(self, design: Design) -> float | None:
+        """The largest cell of the model's plane mesh (m), what :attr:`cells_per_wavelength` measures;
+        None when the model has no plane mesh (the blade alone)."""
+        spacing = getattr(self.settings, "spacing", None)
+        return float(spacing) if design.plane is not None and spacing is not None else None
+
+    def mesh_note(self, design: Design, freqs: np.ndarray) -> str | None:
+        """Refuse a mesh too coarse for the top frequency (:class:`SettingsError`); the note a report
+        carries when it is coarser than recommended, else None. Before the rule, a NEC-2 plate
+        meshed at 3 m (1 cell per wavelength at 97 MHz) scored square-10 at 8862.8 mK, not ~220."""
+        cell = self.mesh_cell_m(design)
+        if cell is None or freqs.size == 0:
+            return None
+        floor, recommended = self.cells_per_wavelength
+        top = float(np.max(freqs))
+        per_wavelength = 299.792458 / top / cell
+        if per_wavelength < floor:
+            raise SettingsError(
+                f"{design.label()}: a {cell:g} m {self.name} mesh is {per_wavelength:.2f} cells per wavelength at "
+                f"{top:g} MHz, below this engine's floor of {floor:g} (at most {299.792458 / top / floor:.3g} m; "
+                f"{299.792458 / top / recommended:.3g} m recommended): its FoM would be the mesh's, not the plane's")
+        if per_wavelength < recommended:
+            return (f"{self.name} mesh {cell:g} m is {per_wavelength:.1f} cells per wavelength at {top:g} MHz (recommended "
+                    f">= {recommended:g}, {299.792458 / top / recommended:.3g} m): a coarse look, its FoM not to be trusted")
+        return None
+
     def why_unresolved(self, plane: Any) -> str | None:
         """Why this engine's model would not be the plane as drawn (None when it is): an engine
         whose mesh moves the outline says where. A conforming mesh keeps every edge."""
@@ -284,11 +314,15 @@ class Solver(ABC):
     # --------------------------------------------------------------------- solve
     def solve(self, design: Design, freqs_mhz: Iterable[float] = DEFAULT_FREQS_MHZ) -> Beam:
         """The design's beam at ``freqs_mhz`` (from the cache when it is there)."""
-        from .cache import BeamCache
-
         refuse_while_spawning()
         freqs = _freqs(freqs_mhz)
         solved = self._to_solve(freqs)  # a fill outside what was validated is refused before anything is built
+        note = self.mesh_note(design, freqs)
+        return _noted(self._solve(design, freqs, solved), note)
+
+    def _solve(self, design: Design, freqs: np.ndarray, solved: np.ndarray) -> Beam:
+        from .cache import BeamCache
+
         cache = BeamCache() if self.use_cache else None
         key = self.cache_key(design, freqs)
         if cache is not None and (hit := cache.get(key)) is not None:
@@ -318,6 +352,7 @@ class Solver(ABC):
         refuse_while_spawning()
         freqs = _freqs(freqs_mhz)
         self._to_solve(freqs)  # refused here, not after the first design's build
+        notes = [self.mesh_note(d, freqs) for d in designs]
         cache = BeamCache() if self.use_cache else None
         keys = [self.cache_key(d, freqs) for d in designs]
         beams: dict[str, Beam] = {}
@@ -336,7 +371,7 @@ class Solver(ABC):
                 continue
             solved = self._solve_group([designs[i] for i in members], [keys[i] for i in members], freqs, cache)
             beams.update(zip((keys[i] for i in members), solved))
-        return [beams[k] for k in keys]
+        return [_noted(beams[k], note) for k, note in zip(keys, notes)]
 
     def _solve_group(self, designs: list[Design], keys: list[str], freqs: np.ndarray, cache) -> list[Beam]:
         """Designs of one share key, every member at a frequency in one job; each member's
@@ -476,6 +511,12 @@ class Solver(ABC):
 
 
 MAX_FREQ_MHZ = 1e5  # 100 GHz: far above any ground-plane model here; a larger value is Hz passed as MHz
+
+
+def _noted(beam: Beam, mesh_note: str | None) -> Beam:
+    """The beam with the mesh rule's note in its meta (not in the cache: the note follows from the
+    settings and frequencies, which the key already holds)."""
+    return beam if mesh_note is None else beam.with_meta(mesh_note=mesh_note)
 
 
 def _freqs(freqs_mhz: Iterable[float]) -> np.ndarray:

@@ -97,6 +97,12 @@ class FdtdSolver(Solver):
     grounds: ClassVar[tuple[str, ...]] = ("soil", "pec", "free")
     title: ClassVar[str] = "gprMax FDTD (staircased plate, soil in the grid)"
     size_unit: ClassVar[str] = "cells"
+    # the whole model is on the grid; 20 per free-space wavelength is ~9 in eps_r 5 soil (FDTD's usual
+    # floor is 10 in the densest medium); 40 is the 7.5 cm cell the ladders converged at (docs/fdtd.md)
+    cells_per_wavelength: ClassVar[tuple[float, float]] = (20.0, 40.0)
+
+    def mesh_cell_m(self, design: Design) -> float | None:
+        return float(self.settings.cell)
 
     def engine_identity(self) -> dict[str, str]:
         return run.engine_info()

@@ -170,7 +170,7 @@ def test_sigterm_mid_solve_exits_cleanly_and_keeps_what_finished(tmp_path):
     semaphore objects' from the pool. Now: one line, status 143, workers gone, solved frequencies kept."""
     env = {**os.environ, "GROUNDPLANE_CACHE": str(tmp_path / "cache")}
     cmd = [sys.executable, "-m", "groundplane", "solve", "--preset", "square-10", "--mesh", "2.0",
-           "--freqs", "40:100:1", "-o", str(tmp_path / "b.npz")]
+           "--freqs", "40:70:1", "-o", str(tmp_path / "b.npz")]
     proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.time() + 120
@@ -304,7 +304,7 @@ def test_a_program_read_from_stdin_fails_with_the_cause_not_out_of_memory(tmp_pa
         import sys
         sys.path.insert(0, {str(ROOT)!r})
         import groundplane as gp
-        beam = gp.solve("square-10", freqs="55:97:21", mesh=2.0, blade_cells=(4, 4), workers=2)
+        beam = gp.solve("square-10", freqs="40:70:15", mesh=2.0, blade_cells=(4, 4), workers=2)
         print("solved")
     """)
     env = {**os.environ, "GROUNDPLANE_CACHE": str(tmp_path / "cache")}
@@ -323,7 +323,7 @@ def test_a_script_without_a_main_block_fails_with_the_cause_instead_of_waiting_f
         import sys
         sys.path.insert(0, {str(ROOT)!r})
         import groundplane as gp
-        beam = gp.solve("square-10", freqs="55:97:21", mesh=2.0, blade_cells=(4, 4), workers=2)
+        beam = gp.solve("square-10", freqs="40:70:15", mesh=2.0, blade_cells=(4, 4), workers=2)
         print("solved")
     """))
     env = {**os.environ, "GROUNDPLANE_CACHE": str(tmp_path / "cache")}
