@@ -13,6 +13,20 @@ from typing import Any, Iterator
 from .errors import OutputError, UserInputError
 
 
+def _no_duplicate_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    keys = [k for k, _ in pairs]
+    if len(set(keys)) < len(keys):
+        twice = sorted({k for k in keys if keys.count(k) > 1})
+        raise ValueError(f"key(s) {', '.join(map(repr, twice))} given twice (JSON keeps the last in silence)")
+    return dict(pairs)
+
+
+def strict_json(text: str) -> Any:
+    """``json.loads`` that refuses an object with a key twice (``"side": 10, "side": 20`` took the
+    last in silence) with a ``ValueError``, as for any malformed JSON."""
+    return json.loads(text, object_pairs_hook=_no_duplicate_keys)
+
+
 @contextmanager
 def atomic_path(path: str | os.PathLike, suffix: str = ".tmp") -> Iterator[Path]:
     """Yield a temporary path beside ``path``; when the block succeeds it replaces

@@ -118,6 +118,9 @@ class FomSettings:
         if not (math.isfinite(self.beta) and abs(self.beta) <= MAX_BETA):
             raise SettingsError(f"--beta {self.beta:g}: a sky spectral index is a few (the paper's 2.55); "
                                 f"|beta| <= {MAX_BETA:g} is accepted")
+        if not (math.isfinite(self.antenna_azimuth_deg) and abs(self.antenna_azimuth_deg) <= 360):
+            raise SettingsError(f"--antenna-azimuth {self.antenna_azimuth_deg:g}: an azimuth is -360..360 deg "
+                                "(1e308 was scored as if it were one)")
         if (self.lat_deg is None) != (self.lon_deg is None):
             raise SettingsError("--lat and --lon go together (a site is both)")
         if self.lat_deg is not None:

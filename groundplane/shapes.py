@@ -33,6 +33,7 @@ from shapely.geometry.polygon import orient
 from shapely.validation import explain_validity
 
 from .errors import ShapeError
+from .files import strict_json
 
 __all__ = ["GroundPlane", "ShapeError", "Param", "param", "SHAPES", "PRESETS", "preset", "from_dict", "to_dict",
            "Square", "Plus", "Sawtooth", "Teeth", "TeethXY", "RegularPolygon", "Star", "PolygonPlane"]
@@ -792,7 +793,7 @@ def from_file(path: str | Path) -> GroundPlane:
     """
     path = Path(path)
     try:
-        d = json.loads(path.read_text())
+        d = strict_json(path.read_text())
     except FileNotFoundError:
         raise ShapeError(f"{path}: no such design file") from None
     except (OSError, UnicodeDecodeError, ValueError) as exc:  # JSONDecodeError, a 5000-digit number

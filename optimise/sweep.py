@@ -137,8 +137,9 @@ def _candidate(c: dict[str, Any], path: Path, where: str) -> Candidate:
             beams = c["beam"] if isinstance(c["beam"], list) else [c["beam"]]
             beams = [str((path.parent / b) if not Path(b).is_absolute() else b) for b in beams]
             area = c.get("metal_area_m2")
-            if area is not None and (isinstance(area, bool) or not isinstance(area, (int, float))):
-                raise ConfigError(f"metal_area_m2 must be a number, got {area!r}")
+            if area is not None and (isinstance(area, bool) or not isinstance(area, (int, float))
+                                     or not (math.isfinite(area) and area > 0)):
+                raise ConfigError(f"metal_area_m2 must be a positive number of m^2, got {area!r}")
             return Candidate(c.get("name") or Path(beams[0]).stem, beam_paths=tuple(beams),
                              beam_format=c.get("format", "auto"), metal_area_m2=None if area is None else float(area))
         if "preset" in c:

@@ -89,3 +89,31 @@ def test_a_mesh_between_the_floor_and_the_recommended_is_noted_in_the_beam_and_t
     paths = write_report([{"name": "a", "status": "ok", "shape": "square", "params": {"side": 10.0}, "lst_averaged_fom_mk": 1.0,
                            "metal_area_m2": 100.0, "extent_m": 10.0, "mesh_note": note}], tmp_path / "rep")
     assert f"**Coarse mesh**: {note}" in paths["md"].read_text()
+
+
+# 4 -------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("azimuth", ["1e308", "-400", "nan", "inf"])
+def test_an_azimuth_that_is_none_is_refused(azimuth, capsys):
+    """`fom --antenna-azimuth 1e308` scored 141.93 mK."""
+    assert main(["fom", str(EXAMPLE), "--n-lst", "24", "--antenna-azimuth", azimuth]) == 2
+    assert "azimuth" in _err(capsys)
+
+
+@pytest.mark.parametrize("area", ["-100", "0", "nan", "inf"])
+def test_a_beam_candidate_with_no_metal_is_refused_not_ranked(tmp_path, area):
+    """A sweep candidate with `metal_area_m2 = -100` was ranked."""
+    from groundplane.errors import ConfigError
+    from optimise.sweep import load_config
+
+    cfg = tmp_path / "sweep.toml"
+    cfg.write_text(f"[[candidate]]\nname = 'x'\nbeam = '{EXAMPLE}'\nmetal_area_m2 = {area}\n")
+    with pytest.raises(ConfigError, match=r"candidate.*metal_area_m2 must be a positive number of m\^2"):
+        load_config(cfg)
+
+
+def test_a_design_file_with_a_key_twice_is_refused(tmp_path, capsys):
+    """`{"shape": "square", "side": 10, "side": 20}` silently took the last."""
+    path = tmp_path / "plane.json"
+    path.write_text('{"shape": "square", "side": 10, "side": 20}')
+    assert main(["export", "--design", str(path), "-o", str(tmp_path / "p.stl")]) == 2
+    assert "'side' given twice" in _err(capsys)
