@@ -275,6 +275,9 @@ def _run_optimise(args: argparse.Namespace) -> int:
     from .report import write_report
     from .search import best_plane, optimise
 
+    if not args.pareto and (args.reference or args.beside):  # they were accepted and ignored
+        raise CLIError(f"{'--reference' if args.reference else '--beside'} goes with --pareto (a front's answers "
+                       "set against a preset, another front drawn beside); a single search has neither")
     compared = {name: compare_plane(name) for name in args.compare}  # refused before the search, not after it
     seeds = _seeds(args)
     check_output_dir(args.out)

@@ -340,14 +340,30 @@ def label_offsets(points: list[tuple[float, float]], size: tuple[float, float] =
 def read_front(path: str | Path) -> list[dict[str, Any]]:
     """Another run's front (``front.csv`` or an older ``pareto.csv``): (area, FoM) per budget, to draw beside."""
     import csv
+    import io
 
+    path = Path(path)
+    if not path.is_file():  # /dev/zero was read as one endless line until memory ran out
+        raise ValueError("not a regular file")
+    if path.stat().st_size > MAX_FRONT_BYTES:
+        raise ValueError(f"{path.stat().st_size:,} bytes; a front table is a few kB (at most {MAX_FRONT_BYTES:,})")
+    text = path.read_text(errors="replace")
+    reader = csv.DictReader(io.StringIO(text))
+    need = {"budget_m2", "area_m2", "fom_mk"}
+    if not need <= set(reader.fieldnames or ()):
+        raise ValueError(f"no {', '.join(sorted(need - set(reader.fieldnames or ())))} column(s) in its first line "
+                         "(front.csv and pareto.csv have budget_m2, area_m2, fom_mk)")
     rows = []
-    with open(path, newline="") as fh:
-        for r in csv.DictReader(fh):
-            if r.get("area_m2") and r.get("fom_mk"):
-                rows.append({"budget_m2": float(r["budget_m2"]), "area_m2": float(r["area_m2"]),
-                             "fom_mk": float(r["fom_mk"])})
+    for r in reader:
+        if r.get("area_m2") and r.get("fom_mk"):
+            rows.append({"budget_m2": float(r["budget_m2"]), "area_m2": float(r["area_m2"]),
+                         "fom_mk": float(r["fom_mk"])})
+    if not rows:
+        raise ValueError("it holds no budget with an answer (area_m2 and fom_mk)")
     return rows
+
+
+MAX_FRONT_BYTES = 10_000_000
 
 
 def pareto_figure(front: Front, path: Path, beside: list[dict[str, Any]] | None = None,

@@ -117,3 +117,24 @@ def test_a_design_file_with_a_key_twice_is_refused(tmp_path, capsys):
     path.write_text('{"shape": "square", "side": 10, "side": 20}')
     assert main(["export", "--design", str(path), "-o", str(tmp_path / "p.stl")]) == 2
     assert "'side' given twice" in _err(capsys)
+
+
+# 5, 10 ---------------------------------------------------------------------------------------
+@pytest.mark.parametrize("extra", [["--reference", "nonesuch"], ["--beside", "/dev/zero"],
+                                   ["--reference", "square-10"]])
+def test_pareto_options_without_pareto_are_refused_not_ignored(tmp_path, capsys, extra):
+    argv = ["optimise", "--shape", "square", "--max-area", "150", "--budget", "3", "-o", str(tmp_path / "o"), *extra]
+    assert main(argv) == 2
+    assert "goes with --pareto" in _err(capsys)
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("beside,why", [("/dev/zero", "not a regular file"),  # was a MemoryError after 3.7 GB
+                                        ("README.md", "no area_m2, budget_m2, fom_mk column"),  # was read as an empty front
+                                        ("empty.csv", "holds no budget with an answer")])
+def test_a_beside_that_is_no_front_is_refused(tmp_path, capsys, beside, why):
+    (tmp_path / "empty.csv").write_text("budget_m2,area_m2,fom_mk\n100,,\n")
+    path = beside if beside.startswith("/") else (ROOT / beside if beside == "README.md" else tmp_path / beside)
+    argv = ["optimise", "--shape", "square", "--pareto", "100", "--beside", str(path), "-o", str(tmp_path / "o")]
+    assert main(argv) == 2
+    assert why in _err(capsys)
