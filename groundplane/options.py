@@ -252,6 +252,21 @@ def option_keys(cls: type) -> set[str]:
 MAX_FREQS = 5000  # a 0.01 MHz sweep of 40-100 MHz; more is a step typed wrong
 
 
+MAX_NAME_CHARS = 120
+
+
+def check_name(value: Any, what: str) -> str:
+    """A user's name for a thing (a scenario, a member, a candidate) as reports will print it: a
+    string of printable characters (an escape sequence was printed raw to the terminal, a newline
+    broke the markdown table), at most :data:`MAX_NAME_CHARS` long."""
+    if not isinstance(value, str):
+        raise SettingsError(f"{what} must be a string, got {value!r}"[:200])
+    if not value.strip() or not value.isprintable() or len(value) > MAX_NAME_CHARS:
+        raise SettingsError(f"{what} {value[:40]!r}: a name is 1-{MAX_NAME_CHARS} printable characters (no control "
+                            "characters, tabs or newlines)")
+    return value
+
+
 def parse_freqs(spec: str) -> tuple[float, ...]:
     """'40:100:1' (inclusive), '50,75,100' or 'fit-band' (the paper's LinLog fit band,
     55-97 MHz at 1 MHz: the only frequencies the FoM uses, so the same FoM for 43/61 of

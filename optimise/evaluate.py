@@ -105,7 +105,7 @@ class EvalSettings:
 
         grounds = ENGINES[self.engine].grounds  # each engine declares what it can put under a design
         if "soil" not in grounds:
-            able = " or ".join(f"--engine {n}" for n, cls in ENGINES.items() if "soil" in cls.grounds) or "another engine"
+            able = " or ".join(f"--engine {n}" for n, cls in sorted(ENGINES.items()) if "soil" in cls.grounds) or "another engine"
             raise UserInputError(f"--engine {self.engine} solves over {', '.join(grounds)} ground only, and candidates "
                                  f"here lie on soil: use {able} (or `groundplane solve --engine {self.engine} "
                                  "--ground pec` for one design above PEC)")

@@ -43,6 +43,7 @@ import numpy as np
 from groundplane import paper
 from groundplane.design import Design, Soil
 from groundplane.errors import ConfigError, SettingsError, ShapeError, SolveError, UserInputError
+from groundplane.options import check_name
 from groundplane.shapes import GroundPlane, PolygonPlane, from_dict, to_dict
 
 from .evaluate import Candidate, EvalSettings, failed_row, row_head, score
@@ -56,6 +57,7 @@ OFFSET_M = 0.10
 TOOTH_BASE_ERROR_M = 0.2
 FRAGILE = 0.25  # a member that moves the FoM by more than this (relative) makes the design fragile on its axis
 DEFAULT_MAX_LOSS = 0.005
+MAX_MEMBERS = 100  # members of one scenario set: each is a solve of every design
 
 
 # ------------------------------------------------------------------ as built
@@ -262,8 +264,14 @@ class ScenarioSet:
     aggregate: str = "worst"
 
     def __post_init__(self) -> None:
+        check_name(self.name, "a scenario set's name")
         if not self.members:
             raise ConfigError(f"scenario set '{self.name}' has no members")
+        if len(self.members) > MAX_MEMBERS:  # 5000 ran until killed
+            raise ConfigError(f"scenario set '{self.name}': {len(self.members):,} members, so every design is solved "
+                              f"{len(self.members):,} times; at most {MAX_MEMBERS} (split the question into sets)")
+        for m in self.members:
+            check_name(m.name, f"scenario set '{self.name}': a member's name")
         names = [m.name for m in self.members]
         if len(set(names)) != len(names):
             raise ConfigError(f"scenario set '{self.name}': member names must be unique")

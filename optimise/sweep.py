@@ -47,7 +47,7 @@ from typing import Any, Iterable
 from groundplane.errors import ConfigError, ShapeError, UserInputError
 from groundplane.files import append_jsonl, read_jsonl
 from groundplane.fom import FomSettings
-from groundplane.options import build
+from groundplane.options import build, check_name
 from groundplane.shapes import PRESETS, SHAPES, from_dict
 from solvers.api import solve_options_from_mapping
 
@@ -127,9 +127,9 @@ def load_scenarios(path: str | Path, given: dict[str, Any] | None = None):
 
 def _candidate(c: dict[str, Any], path: Path, where: str) -> Candidate:
     """One ``[[candidate]]``: a preset, a shape with its parameters, or solver export file(s)."""
-    if "name" in c and not isinstance(c["name"], str):
-        raise ConfigError(f"{where}: name must be a string, got {c['name']!r}")
     try:
+        if "name" in c:
+            check_name(c["name"], "a candidate's name")
         if "beam" in c:
             extra = set(c) - {"beam", "name", "format", "metal_area_m2"}
             if extra:

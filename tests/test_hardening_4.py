@@ -138,3 +138,40 @@ def test_a_beside_that_is_no_front_is_refused(tmp_path, capsys, beside, why):
     argv = ["optimise", "--shape", "square", "--pareto", "100", "--beside", str(path), "-o", str(tmp_path / "o")]
     assert main(argv) == 2
     assert why in _err(capsys)
+
+
+# 6, 13 --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("where,name", [("set", "\\u001b[31m"), ("member", "a\\nb"), ("member", "tab\\there"),
+                                        ("member", "   ")])
+def test_a_name_with_control_characters_is_refused(tmp_path, where, name):
+    """A member named "\\u001b[31m" was printed raw (coloured the terminal); one with a newline broke
+    the markdown table."""
+    from groundplane.errors import ConfigError
+    from optimise.scenarios import load_set
+
+    set_name, member = (name, "ok") if where == "set" else ("ok", name)
+    path = tmp_path / "s.toml"
+    path.write_text(f'name = "{set_name}"\n[[member]]\nname = "{member}"\nsigma = 0.01\n')
+    with pytest.raises(ConfigError, match="printable characters"):
+        load_set(path)
+
+
+def test_a_candidate_name_with_a_newline_is_refused(tmp_path):
+    from groundplane.errors import ConfigError
+    from optimise.sweep import load_config
+
+    cfg = tmp_path / "sweep.toml"
+    cfg.write_text('[[candidate]]\nname = "a\\nb"\npreset = "square-10"\n')
+    with pytest.raises(ConfigError, match=r"#1: a candidate's name 'a\\nb': a name is 1-120 printable"):
+        load_config(cfg)
+
+
+def test_a_scenario_set_of_thousands_is_refused_before_any_solve(tmp_path):
+    """A TOML with 5000 members ran until killed."""
+    from groundplane.errors import ConfigError
+    from optimise.scenarios import load_set
+
+    path = tmp_path / "s.toml"
+    path.write_text("".join(f'[[member]]\nname = "m{i}"\nsigma = {0.001 + i * 1e-6}\n' for i in range(5000)))
+    with pytest.raises(ConfigError, match="5,000 members, so every design is solved 5,000 times; at most 100"):
+        load_set(path)

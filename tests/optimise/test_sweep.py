@@ -176,7 +176,7 @@ def test_an_engine_that_cannot_solve_on_soil_is_refused_before_any_solve(monkeyp
 
     EvalSettings(solve=SolveSettings(engine="surface")).check_scorable()
     monkeypatch.setattr(SurfaceSolver, "grounds", ("pec", "free"))
-    with pytest.raises(UserInputError, match=r"solves over pec, free ground only.*use --engine nec or --engine fdtd \(or"):
+    with pytest.raises(UserInputError, match=r"solves over pec, free ground only.*use --engine fdtd or --engine nec \(or"):
         EvalSettings(solve=SolveSettings(engine="surface")).check_scorable()  # the way out from the declarations
 
 
