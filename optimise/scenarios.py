@@ -116,13 +116,12 @@ def missing_sheet(plane: GroundPlane, sheet=None) -> tuple[str, PolygonPlane] | 
     return None
 
 
-def as_built(plane: GroundPlane, spec: str) -> tuple[GroundPlane, str]:
-    """(the plane as built, what was done) for an as-built spec: ``missing-sheet``,
-    ``corners:ERR_M:DRAW``, ``turned:DEG`` (the antenna turned: the plane turned the other way
-    under it), ``offset:DX_M:DY_M`` (the antenna off centre: the plane moved under it) or
-    ``tooth-base:DELTA_M`` (every tooth base, of families that have one, off by DELTA)."""
-    from shapely import affinity
+AS_BUILT_LIMITS = {"turned": 180.0, "offset": 10.0, "tooth-base": 10.0}  # |deg|, |m|, |m|: an error, not a redesign
 
+
+def as_built_values(spec: str) -> tuple[str, list[float]]:
+    """(kind, its numbers) of an as-built spec, refused (:class:`ConfigError`) when they are no
+    build error (``turned:1e308`` was a math domain error deep in shapely) before any design is seen."""
     kind, *args = spec.split(":")
     try:
         vals = [float(a) for a in args]
@@ -134,6 +133,23 @@ def as_built(plane: GroundPlane, spec: str) -> tuple[GroundPlane, str]:
                           "or tooth-base:DELTA_M")
     if len(vals) != want[kind] or not all(math.isfinite(v) for v in vals):
         raise ConfigError(f"as_built '{spec}': {kind} takes {want[kind]} finite number(s)")
+    if kind == "corners" and not (0 < vals[0] < 1 and vals[1] >= 1 and vals[1] == int(vals[1])):
+        raise ConfigError(f"as_built '{spec}': an error of 0-1 m and a draw number from 1")
+    limit = AS_BUILT_LIMITS.get(kind)
+    if limit is not None and any(abs(v) > limit for v in vals):
+        unit = "deg" if kind == "turned" else "m"
+        raise ConfigError(f"as_built '{spec}': {kind} by at most {limit:g} {unit} (a build error, not another design)")
+    return kind, vals
+
+
+def as_built(plane: GroundPlane, spec: str) -> tuple[GroundPlane, str]:
+    """(the plane as built, what was done) for an as-built spec: ``missing-sheet``,
+    ``corners:ERR_M:DRAW``, ``turned:DEG`` (the antenna turned: the plane turned the other way
+    under it), ``offset:DX_M:DY_M`` (the antenna off centre: the plane moved under it) or
+    ``tooth-base:DELTA_M`` (every tooth base, of families that have one, off by DELTA)."""
+    from shapely import affinity
+
+    kind, vals = as_built_values(spec)
     if kind == "missing-sheet":
         found = missing_sheet(plane)
         if found is None:
@@ -142,8 +158,6 @@ def as_built(plane: GroundPlane, spec: str) -> tuple[GroundPlane, str]:
         return found[1], found[0]
     if kind == "corners":
         err, draw = vals
-        if not (0 < err < 1 and draw >= 1 and draw == int(draw)):
-            raise ConfigError(f"as_built '{spec}': an error of 0-1 m and a draw number from 1")
         return moved_corners(plane, err, int(draw)), f"corners moved by up to +-{err * 100:g} cm (draw {int(draw)})"
     if kind == "turned":
         return _polygon(affinity.rotate(plane.outline(), -vals[0], origin=(0, 0))), f"antenna turned {vals[0]:+g} deg"
@@ -170,6 +184,13 @@ class Member:
     name: str
     overrides: tuple[tuple[str, Any], ...] = ()
     as_built: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.as_built is not None:  # its numbers refused when the set is read, not at the first design
+            try:
+                as_built_values(self.as_built)
+            except ConfigError as exc:
+                raise ConfigError(f"member '{self.name}': {exc}") from None
 
     @property
     def soil_only(self) -> bool:
@@ -417,6 +438,9 @@ def too_few_for_aggregate(scenarios: ScenarioSet, scored: int, skipped: list[str
     """Why a design's scored members cannot make the set's worst-K (fewer than K once the
     as-built variants it has no part for are skipped), or None: a mean of fewer would be
     another aggregate than the one asked for, and rank designs unlike each other."""
+    if scored == 0:  # every member an as-built variant of a part this design lacks: max() of nothing
+        return (f"no member of the set '{scenarios.name}' applies to this design ({'; '.join(skipped)}): nothing to "
+                "score it on")
     if scenarios.aggregate in AGGREGATES or worst_k(scenarios.aggregate) <= scored:
         return None
     return (f"--aggregate {scenarios.aggregate}: this design has {scored} member(s) of the set '{scenarios.name}' "

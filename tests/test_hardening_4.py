@@ -175,3 +175,30 @@ def test_a_scenario_set_of_thousands_is_refused_before_any_solve(tmp_path):
     path.write_text("".join(f'[[member]]\nname = "m{i}"\nsigma = {0.001 + i * 1e-6}\n' for i in range(5000)))
     with pytest.raises(ConfigError, match="5,000 members, so every design is solved 5,000 times; at most 100"):
         load_set(path)
+
+
+# 9 -------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("spec,why", [("turned:1e308", "turned by at most 180 deg"),  # was a math domain error
+                                      ("offset:0:-50", "offset by at most 10 m"),
+                                      ("corners:2:1", "an error of 0-1 m")])
+def test_an_as_built_error_that_is_none_is_refused_when_the_set_is_read(tmp_path, spec, why):
+    from groundplane.errors import ConfigError
+    from optimise.scenarios import load_set
+
+    path = tmp_path / "s.toml"
+    path.write_text(f'[[member]]\nname = "m"\nas_built = "{spec}"\n')
+    with pytest.raises(ConfigError, match=f"member 'm': as_built '{spec}': {why}"):
+        load_set(path)
+
+
+def test_a_set_with_no_member_for_the_design_fails_the_design_with_the_reason(tmp_path):
+    """`as_built = "tooth-base:-100"` alone on square-10: ValueError: max() arg is an empty sequence."""
+    from groundplane.design import Soil
+    from groundplane.shapes import preset
+    from optimise.evaluate import Candidate, EvalSettings
+    from optimise.scenarios import NO_CONSTRAINTS, Member, ScenarioSet, evaluate_scenarios
+
+    only = ScenarioSet("teeth", (Member("bases", (), "tooth-base:-0.2"),))
+    row = evaluate_scenarios(Candidate("sq", plane=preset("square-10")), EvalSettings(soil=Soil()), only, NO_CONSTRAINTS)
+    assert row["status"] == "failed"
+    assert "no member of the set 'teeth' applies to this design" in row["error"]
