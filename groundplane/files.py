@@ -93,8 +93,9 @@ def check_output(path: str | os.PathLike) -> str:
 
 
 def check_output_dir(path: str | os.PathLike) -> Path:
-    """Make (if needed) and probe an output folder before any work: a command that would solve
-    for minutes and then find it cannot write its results refuses at once instead."""
+    """Make (if needed) and probe an output folder before any work, and hold it as its one writer
+    (:func:`hold_output_dir`): a command that would solve for minutes and then find it cannot write
+    its results, or that another run is writing them, refuses at once instead."""
     path = Path(path)
     if path.exists() and not path.is_dir():
         raise UserInputError(f"{path}: is a file; give a folder for the results")
@@ -105,7 +106,68 @@ def check_output_dir(path: str | os.PathLike) -> Path:
         os.unlink(probe)
     except OSError as exc:
         raise UserInputError(f"{path}: cannot write results here ({exc.strerror or exc})") from None
+    hold_output_dir(path)
     return path
+
+
+WRITER_LOCK = ".groundplane-writer.lock"
+_HELD: dict[Path, Any] = {}  # folders this process writes: their open, flock'ed lock files
+
+
+def hold_output_dir(path: str | os.PathLike) -> bool:
+    """Take ``path`` as this process's to write, or refuse (:class:`UserInputError`) naming the run
+    that holds it: two searches into one folder left 10 history rows for 5 evaluations. An advisory
+    ``flock`` (it goes with its process, even on ``kill -9``: no stale lock to clear). True when
+    taken here, False when this process held it already."""
+    import fcntl
+    import sys
+    import time
+
+    path = Path(path).resolve()
+    if path in _HELD:
+        return False
+    try:
+        fh = open(path / WRITER_LOCK, "a+")
+    except OSError:  # a folder we cannot write a lock in: check_output_dir's probe says why
+        return False
+    try:
+        fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        fh.seek(0)
+        holder = fh.read(500).strip() or "another process"
+        fh.close()
+        raise UserInputError(f"{path}: another run is writing here ({holder}); wait for it, or give another -o") from None
+    fh.seek(0)
+    fh.truncate()
+    fh.write(f"pid {os.getpid()}, since {time.strftime('%Y-%m-%d %H:%M:%S')}: {' '.join(sys.argv)[:300]}\n")
+    fh.flush()
+    _HELD[path] = fh
+    return True
+
+
+def release_output_dir(path: str | os.PathLike | None = None) -> None:
+    """Give up ``path`` (every held folder when None), as a command ends."""
+    import fcntl
+
+    for p in [Path(path).resolve()] if path is not None else list(_HELD):
+        fh = _HELD.pop(p, None)
+        if fh is not None:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+            fh.close()
+
+
+@contextmanager
+def one_writer(path: str | os.PathLike) -> Iterator[Path]:
+    """Hold ``path`` (made if needed) for the block, unless this process holds it already (a
+    command's :func:`check_output_dir`): the library functions that write a folder use it."""
+    path = Path(path)
+    path.mkdir(parents=True, exist_ok=True)
+    taken = hold_output_dir(path)
+    try:
+        yield path
+    finally:
+        if taken:
+            release_output_dir(path)
 
 
 def warn_once(key: str, message: str) -> None:

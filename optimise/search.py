@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable
 import numpy as np
 
 from groundplane.errors import ShapeError, UserInputError
-from groundplane.files import append_jsonl, atomic_path, read_jsonl
+from groundplane.files import append_jsonl, atomic_path, one_writer, read_jsonl
 from groundplane.shapes import SHAPES, GroundPlane
 
 from .evaluate import Candidate, EvalSettings, evaluate
@@ -363,21 +363,21 @@ def optimise(
     _check_request(max_area, algorithm, budget, strategy, fam, ints, seeds, **rules)
     settings.check_scorable()
     constraints = constraints or NO_CONSTRAINTS
-    out = _open_search(out_dir, shape, max_area, settings, strategy, executor,
-                       _objective(objective, scenarios, constraints), scenarios, rules)
-    ev = _Evaluator(fam, shape, max_area, settings, History(out / "history.jsonl"),
-                    evaluate_fn or _default_evaluate(scenarios, constraints, progress), progress, budget=budget,
-                    constraints=constraints, build_tolerance=build_tolerance)
-    ev.resumed()
-    if strategy == "global":
-        _global_search(fam, ints, ev, algorithm, out, executor, scheduler, seeds, explore)
-    else:
-        _local_search(fam, ints, ev, algorithm)
-    stopping = _until_flat(fam, ints, ev, algorithm, max(budget, max_budget or budget))
-    fine = (confirm_settings or settings.with_spacing(confirm_mesh)) if (confirm_mesh or confirm_settings) else None
-    best, confirmed, closest = _answer(ev, fine, out, confirm_top, progress)
-    return OptimiseResult(best, ev.hist.rows, out, confirmed, closest, stopping,
-                          list(ev.counted))
+    with one_writer(out_dir):  # a second search into the folder is refused, not interleaved with this one
+        out = _open_search(out_dir, shape, max_area, settings, strategy, executor,
+                           _objective(objective, scenarios, constraints), scenarios, rules)
+        ev = _Evaluator(fam, shape, max_area, settings, History(out / "history.jsonl"),
+                        evaluate_fn or _default_evaluate(scenarios, constraints, progress), progress, budget=budget,
+                        constraints=constraints, build_tolerance=build_tolerance)
+        ev.resumed()
+        if strategy == "global":
+            _global_search(fam, ints, ev, algorithm, out, executor, scheduler, seeds, explore)
+        else:
+            _local_search(fam, ints, ev, algorithm)
+        stopping = _until_flat(fam, ints, ev, algorithm, max(budget, max_budget or budget))
+        fine = (confirm_settings or settings.with_spacing(confirm_mesh)) if (confirm_mesh or confirm_settings) else None
+        best, confirmed, closest = _answer(ev, fine, out, confirm_top, progress)
+        return OptimiseResult(best, ev.hist.rows, out, confirmed, closest, stopping, list(ev.counted))
 
 
 def _check_explore(explore: int | None, budget: int, strategy: str) -> None:

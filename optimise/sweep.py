@@ -45,7 +45,7 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from groundplane.errors import ConfigError, ShapeError, UserInputError
-from groundplane.files import append_jsonl, read_jsonl
+from groundplane.files import append_jsonl, one_writer, read_jsonl
 from groundplane.fom import FomSettings
 from groundplane.options import build, check_name
 from groundplane.shapes import PRESETS, SHAPES, from_dict
@@ -235,41 +235,42 @@ def run_sweep(
     if scenarios is not None and executor != "local":
         raise UserInputError("--executor dask solves one beam per candidate; a sweep over a scenario set runs "
                              "locally (its members of one model are solved together)")
-    store = ResultStore(out_dir)
-    done = store.rows()
-    extra = {} if scenarios is None else {"scenarios": scenarios.identity(),
-                                          "constraints": constraints.identity() if constraints else None}
-    keys = {c.name: row_key(c, settings, extra) for c in candidates}
-    todo = [c for c in candidates
-            if keys[c.name] not in done or (retry_failed and done[keys[c.name]].get("status") != "ok")]
-    if progress:
-        print(f"sweep: {len(candidates)} candidates, {len(candidates) - len(todo)} already done, "
-              f"{len(todo)} to solve -> {store.dir}", file=sys.stderr)
-    if executor == "local":
-        from groundplane.progress import Progress
+    with one_writer(out_dir):  # a second sweep into the folder is refused, not interleaved with this one
+        store = ResultStore(out_dir)
+        done = store.rows()
+        extra = {} if scenarios is None else {"scenarios": scenarios.identity(),
+                                              "constraints": constraints.identity() if constraints else None}
+        keys = {c.name: row_key(c, settings, extra) for c in candidates}
+        todo = [c for c in candidates
+                if keys[c.name] not in done or (retry_failed and done[keys[c.name]].get("status") != "ok")]
+        if progress:
+            print(f"sweep: {len(candidates)} candidates, {len(candidates) - len(todo)} already done, "
+                  f"{len(todo)} to solve -> {store.dir}", file=sys.stderr)
+        if executor == "local":
+            from groundplane.progress import Progress
 
-        bar = Progress(len(todo), "candidates", "cand") if progress else None
-        if scenarios is not None:
-            from .scenarios import NO_CONSTRAINTS, check_set, evaluate_scenarios
+            bar = Progress(len(todo), "candidates", "cand") if progress else None
+            if scenarios is not None:
+                from .scenarios import NO_CONSTRAINTS, check_set, evaluate_scenarios
 
+                for c in todo:
+                    check_set(scenarios, settings, c.plane)  # refused before any solve
             for c in todo:
-                check_set(scenarios, settings, c.plane)  # refused before any solve
-        for c in todo:
-            row = (evaluate(c, settings, progress=progress) if scenarios is None else
-                   evaluate_scenarios(c, settings, scenarios, constraints or NO_CONSTRAINTS, progress))
-            store.append({"key": keys[c.name], **row})
+                row = (evaluate(c, settings, progress=progress) if scenarios is None else
+                       evaluate_scenarios(c, settings, scenarios, constraints or NO_CONSTRAINTS, progress))
+                store.append({"key": keys[c.name], **row})
+                if bar:
+                    fom = row.get("lst_averaged_fom_mk")
+                    bar.update(1, f"{c.name}: {f'{fom:.1f} mK' if fom is not None else row.get('status')}")
             if bar:
-                fom = row.get("lst_averaged_fom_mk")
-                bar.update(1, f"{c.name}: {f'{fom:.1f} mK' if fom is not None else row.get('status')}")
-        if bar:
-            bar.close()
-    elif executor == "dask":
-        _run_dask(todo, settings, store, keys, scheduler, progress)
-    else:
-        raise UserInputError(f"unknown executor '{executor}'; choose local or dask")
-    rows = store.rows()
-    result = [rows[keys[c.name]] for c in candidates if keys[c.name] in rows]
-    return result + [dict(r) for r in invalid]
+                bar.close()
+        elif executor == "dask":
+            _run_dask(todo, settings, store, keys, scheduler, progress)
+        else:
+            raise UserInputError(f"unknown executor '{executor}'; choose local or dask")
+        rows = store.rows()
+        result = [rows[keys[c.name]] for c in candidates if keys[c.name] in rows]
+        return result + [dict(r) for r in invalid]
 
 
 def _solve_on_worker(candidate: Candidate, settings: EvalSettings) -> tuple[str, float]:

@@ -202,3 +202,58 @@ def test_a_set_with_no_member_for_the_design_fails_the_design_with_the_reason(tm
     row = evaluate_scenarios(Candidate("sq", plane=preset("square-10")), EvalSettings(soil=Soil()), only, NO_CONSTRAINTS)
     assert row["status"] == "failed"
     assert "no member of the set 'teeth' applies to this design" in row["error"]
+
+
+# 7 -------------------------------------------------------------------------------------------
+def _holder(folder):
+    """Another process that holds ``folder`` as its writer until killed."""
+    import subprocess
+    import sys
+    import time
+
+    code = ("import sys, time; from groundplane.files import check_output_dir; "
+            f"check_output_dir({str(folder)!r}); print('held', flush=True); time.sleep(120)")
+    proc = subprocess.Popen([sys.executable, "-c", code], cwd=ROOT, stdout=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().strip() == "held"
+    time.sleep(0.1)
+    return proc
+
+
+def test_a_second_writer_of_an_output_folder_is_refused_until_the_first_is_gone(tmp_path, capsys):
+    """Two `optimise` runs into one -o left history.jsonl with 10 rows for 5 evaluations."""
+    import signal
+
+    out = tmp_path / "o"
+    proc = _holder(out)
+    try:
+        argv = ["optimise", "--shape", "square", "--max-area", "150", "--budget", "3", "-o", str(out)]
+        assert main(argv) == 2
+        assert f"another run is writing here (pid {proc.pid}, since" in _err(capsys)
+        cfg = tmp_path / "sweep.toml"
+        cfg.write_text('[[candidate]]\npreset = "square-10"\n')
+        assert main(["sweep", str(cfg), "-o", str(out)]) == 2
+        import groundplane as gp
+        from groundplane.errors import UserInputError
+
+        with pytest.raises(UserInputError, match="another run is writing here"):
+            gp.sweep(cfg, out)
+    finally:
+        proc.send_signal(signal.SIGKILL)  # kill -9: its lock goes with it
+        proc.wait()
+    from groundplane.files import check_output_dir, release_output_dir
+
+    check_output_dir(out)  # free again: no stale lock to clear by hand
+    release_output_dir()
+
+
+# 8 -------------------------------------------------------------------------------------------
+@pytest.mark.skipif(not __import__("os").path.isdir("/sys/kernel"), reason="needs a path no one may write (/sys)")
+def test_nec_with_an_unwritable_cache_warns_and_solves(tmp_path, monkeypatch, capfd):
+    """It failed on the calibration file ("cannot write here") where the docs promise a warning and a solve."""
+    monkeypatch.setenv("GROUNDPLANE_CACHE", "/sys/gpcache")
+    monkeypatch.delenv("GROUNDPLANE_WARNED", raising=False)
+    out = tmp_path / "b.npz"
+    argv = ["solve", "--engine", "nec", "square", "--side", "4", "--mesh", "1.0", "--freqs", "60,70", "-o", str(out)]
+    assert main(argv) == 0
+    assert "the NEC-2 gain calibration is not kept" in capfd.readouterr().err  # said by a worker process
+    assert Beam.load(out).freqs_mhz.tolist() == [60.0, 70.0]

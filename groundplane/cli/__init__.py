@@ -21,6 +21,7 @@ from typing import Any, Callable, Sequence
 
 from .. import shapes as sh
 from ..errors import GroundplaneError, UserInputError
+from ..files import release_output_dir
 
 COMMAND_GROUP = "groundplane.commands"
 COMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], Callable[[argparse.Namespace], int]]]] = {}
@@ -111,6 +112,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # Python's own recipe: no flush error at exit
         return 0
     finally:
+        release_output_dir()  # the folders this command wrote are free for the next
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
 

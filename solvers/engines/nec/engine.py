@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from groundplane.errors import EngineError, SolveError
-from groundplane.files import atomic_path
+from groundplane.errors import EngineError, SolveError, UserInputError
+from groundplane.files import atomic_path, warn_once
 
 from ..patterns import to_one_degree, upper_mean_gain
 from ..workers import process_pool
@@ -151,8 +151,12 @@ def calibration_factor(ref_model: NecModel, freq: float, step: int, store: str |
             path.unlink(missing_ok=True)  # damaged: recompute
     kappa = upper_mean_gain(radiation_pattern(ref_model, freq, 91, step)) / 2.0  # the blade alone: D2-symmetric
     if path is not None and 0.3 < kappa < 3.0:
-        with atomic_path(path, suffix=".tmp.json") as tmp:
-            tmp.write_text(json.dumps({"freq_mhz": freq, "kappa": kappa}))
+        try:
+            with atomic_path(path, suffix=".tmp.json") as tmp:
+                tmp.write_text(json.dumps({"freq_mhz": freq, "kappa": kappa}))
+        except UserInputError as exc:  # an unwritable cache: solved again next time, as the beam cache does
+            warn_once("calibration-unwritable", f"the NEC-2 gain calibration is not kept ({exc}); it is solved "
+                                                "again for every design")
     return kappa
 
 

@@ -8,7 +8,7 @@ def test_cross_engine_study_writes_its_table_reading_and_figure(tmp_path, monkey
     from optimise.studies.cross_engine import Meshes, cross_engine
 
     monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path / "cache"))
-    meshes = Meshes(plate=2.5, plate_fine=2.0, nec_finest=2.0, blade=(4, 4), blade_fine=(6, 4))
+    meshes = Meshes(plate=1.55, plate_fine=1.5, nec_finest=1.5, blade=(4, 4), blade_fine=(6, 4))  # the mesh rule: <= 1.58 m at 95 MHz
     cross_engine(tmp_path, "test", workers=1, meshes=meshes, freqs=np.arange(55.0, 98.0, 4.0))
     rows = json.loads((tmp_path / "cross_engine.json").read_text())
     assert len(rows) == 13 and sum(r["reference"] for r in rows) == 3

@@ -10,12 +10,12 @@ def test_soil_surface_study_writes_its_table_reading_and_figure(tmp_path, monkey
 
     monkeypatch.setenv("GROUNDPLANE_CACHE", str(tmp_path / "cache"))
     cells = (4, 4)
-    todo = [Row("square-10", "nec", 2.5, 0.005, "nec", cells),
-            Row("square-10", "surface", 2.5, 0.05, "height", cells),
-            Row("square-10", "surface", 2.5, 0.02, "height", cells),
-            Row("square-10", "surface", 2.5, 0.02, "design", cells),
-            Row("square-20", "surface", 2.5, 0.02, "design", cells),
-            Row("square-20", "surface", 2.5, 0.01, "check", cells)]
+    todo = [Row("square-10", "nec", 1.55, 0.005, "nec", cells),
+            Row("square-10", "surface", 1.55, 0.05, "height", cells),
+            Row("square-10", "surface", 1.55, 0.02, "height", cells),
+            Row("square-10", "surface", 1.55, 0.02, "design", cells),
+            Row("square-20", "surface", 1.55, 0.02, "design", cells),
+            Row("square-20", "surface", 1.55, 0.01, "check", cells)]
     soil_surface(tmp_path, "test", workers=1, todo=todo, freqs=np.arange(55.0, 98.0, 4.0))
     rows = list(csv.DictReader((tmp_path / "soil_surface.csv").open()))
     assert [r["engine"] for r in rows] == ["nec"] + ["surface"] * 5
