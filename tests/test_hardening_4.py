@@ -257,3 +257,35 @@ def test_nec_with_an_unwritable_cache_warns_and_solves(tmp_path, monkeypatch, ca
     assert main(argv) == 0
     assert "the NEC-2 gain calibration is not kept" in capfd.readouterr().err  # said by a worker process
     assert Beam.load(out).freqs_mhz.tolist() == [60.0, 70.0]
+
+
+# 11, 14 -------------------------------------------------------------------------------------
+def test_a_blade_far_finer_than_its_default_is_refused_by_the_estimate_not_by_running_out(capsys):
+    """`--blade-cells 100 100` on square-10 at 1.0 m: a MemoryError after 54 s and 5.6 GB, inside
+    the memory estimate itself (its near search over the blade's 40 000 triangles)."""
+    import time
+
+    t0 = time.perf_counter()
+    argv = ["solve", "--preset", "square-10", "--mesh", "1.0", "--blade-cells", "100", "100", "--freqs", "60", "-o", "x.npz"]
+    assert main(argv) == 2
+    assert time.perf_counter() - t0 < 20
+    assert "Use a coarser --mesh or --blade-cells" in _err(capsys)
+
+
+@pytest.mark.skipif(not __import__("sys").platform.startswith("linux"), reason="prlimit")
+def test_the_memory_check_honours_the_processs_address_space_limit(tmp_path):
+    """`--mesh 0.1` under a 2 GB `ulimit -v` ran 98 s and then ended in a MemoryError."""
+    import resource
+    import subprocess
+    import sys
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_AS, (3 * 10**9, 3 * 10**9))
+
+    done = subprocess.run([sys.executable, "-m", "groundplane", "solve", "--preset", "square-10", "--mesh", "0.15",
+                           "--freqs", "60", "-o", str(tmp_path / "b.npz")], cwd=ROOT, capture_output=True, text=True,
+                          timeout=120, preexec_fn=limit, env={**__import__("os").environ,
+                                                              "GROUNDPLANE_CACHE": str(tmp_path / "cache")})
+    assert done.returncode == 2, done.stderr
+    last = done.stderr.strip().splitlines()[-1]
+    assert "would need about" in last and "GiB available" in last

@@ -13,14 +13,35 @@ from pathlib import Path
 def available_memory_bytes() -> int | None:
     """MemAvailable from /proc/meminfo (Linux), else None (no check), plus what the kept pool's
     workers hold beyond a fresh worker (:func:`shared_pool`): each lets its last design go before
-    building the next, so that memory is the next solve's too."""
+    building the next, so that memory is the next solve's too; at most what this process's own
+    limits leave (:func:`limit_left_bytes`)."""
+    have = None
     try:
         for line in Path("/proc/meminfo").read_text().splitlines():
             if line.startswith("MemAvailable:"):
-                return int(line.split()[1]) * 1024 + kept_worker_bytes()
+                have = int(line.split()[1]) * 1024 + kept_worker_bytes()
+                break
     except OSError:
+        pass
+    left = limit_left_bytes()
+    return left if have is None else (have if left is None else min(have, left))
+
+
+def limit_left_bytes() -> int | None:
+    """What the process's address-space limit (``ulimit -v``, ``prlimit --as``) leaves beyond what
+    it maps already, or None when it has none: under a 2 GB limit a solve the machine's memory
+    allowed ran 98 s into a MemoryError. (Each worker inherits the limit; the solve's estimates,
+    summed over its processes, are held to it as if it were shared: cautious by the worker count.)"""
+    import resource
+
+    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    if soft == resource.RLIM_INFINITY:
         return None
-    return None
+    try:
+        mapped = int(Path("/proc/self/statm").read_text().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        mapped = 0
+    return max(0, soft - mapped)
 
 
 FRESH_WORKER_BYTES = 300 * 2**20  # a spawned worker with an engine imported keeps at least this (not released)

@@ -34,6 +34,9 @@ MODEL_VERSION = 4  # bump when the model changes: the cache key includes it
 # 4: soil (Sommerfeld half-space); PEC and free-space answers unchanged
 FAR_FIELD_STEP = 3  # deg; interpolated bicubically to 1 deg (as NEC's far field)
 MAX_UNKNOWNS = 500_000  # 25x the largest plate of Table 3 at the default mesh
+# memory_estimate of square-10 at 1 m over soil: 0.68 / 2.31 / 7.95 GiB at blade cells (12, 10) / (24, 20) /
+# (36, 30): ~500 B for each (blade triangle)^2 beyond the default blade's
+BLADE_BYTES_PER_PAIR = 512
 FAST_BYTES_PER_UNKNOWN = 110_000  # a fast solve's worker: square-30 at 0.5 m estimated 2.14 GiB for 20364 unknowns
 BASE_BYTES = 400 * 2**20
 
@@ -201,14 +204,21 @@ class SurfaceSolver(Solver):
         """Refuse, before meshing (which alone took minutes and gigabytes at 1-5 cm), a model
         whose estimated size does not fit in memory on this solve's processes."""
         n = self.estimated_unknowns(design)
-        per_unknown = DENSE_BYTES(n) if self.settings.method == "dense" else FAST_BYTES_PER_UNKNOWN * n
+        nx, ny = self.settings.blade_cells
+        # the blade's triangles lie within one another's near zone (it spans ~1.3 m), so its near pairs
+        # grow as the square of its cells, which the per-unknown figure (set at the default blade) misses:
+        # --blade-cells 100 100 ran out of memory after 54 s inside the exact estimate's near search
+        extra_pairs = max(0, (4 * nx * ny) ** 2 - (4 * 12 * 10) ** 2)
+        per_unknown = (DENSE_BYTES(n) if self.settings.method == "dense" else
+                       FAST_BYTES_PER_UNKNOWN * n + BLADE_BYTES_PER_PAIR * extra_pairs)
         need = (per_unknown + BASE_BYTES) * self.processes
         have = available_memory_bytes()
         if n > MAX_UNKNOWNS or (have is not None and need > 0.8 * have):
             raise SettingsError(f"{design.label()}: about {n:,} unknowns at {self.settings.spacing:g} m would need about "
                                 f"{need / 2**30:.1f} GiB on {self.processes} process(es)"
                                 + (f" ({have / 2**30:.1f} GiB available)" if have is not None else "")
-                                + f"; at most {MAX_UNKNOWNS:,} unknowns are solved. Use a coarser --mesh or fewer --workers.")
+                                + f"; at most {MAX_UNKNOWNS:,} unknowns are solved. Use a coarser --mesh or --blade-cells, or fewer "
+                                "--workers.")
 
     def plan(self, design: Design) -> Plan:
         self.precheck(design)
