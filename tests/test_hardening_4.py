@@ -289,3 +289,38 @@ def test_the_memory_check_honours_the_processs_address_space_limit(tmp_path):
     assert done.returncode == 2, done.stderr
     last = done.stderr.strip().splitlines()[-1]
     assert "would need about" in last and "GiB available" in last
+
+
+# 16 ------------------------------------------------------------------------------------------
+def test_a_script_asking_for_workers_from_its_top_level_stops_at_once(tmp_path):
+    """Without `if __name__ == "__main__":` each worker ran the rest of the script: every print, FoM
+    and export three times. Now the parent stops before any worker is spawned, naming the line;
+    the same script with the block solves."""
+    import os
+    import subprocess
+    import sys
+    import textwrap
+
+    body = """
+        import sys
+        sys.path.insert(0, {root!r})
+        import groundplane as gp
+        def main():
+            print("before", flush=True)
+            gp.solve("square-10", freqs="40:70:15", mesh=2.0, blade_cells=(4, 4), workers=2)
+            print("solved", flush=True)
+        {call}
+    """
+    env = {**os.environ, "GROUNDPLANE_CACHE": str(tmp_path / "cache")}
+    bare = tmp_path / "bare.py"
+    bare.write_text(textwrap.dedent(body).format(root=str(ROOT), call="main()"))
+    done = subprocess.run([sys.executable, str(bare)], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode != 0 and done.stdout.count("before") == 1 and "solved" not in done.stdout
+    assert "bare.py, line 9: a solve with workers runs at the script's top level" in done.stderr.splitlines()[-1]
+    guarded = tmp_path / "guarded.py"
+    guarded.write_text(textwrap.dedent(body).format(root=str(ROOT), call='if __name__ == "__main__":\n    main()'))
+    done = subprocess.run([sys.executable, str(guarded)], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["before", "solved"]

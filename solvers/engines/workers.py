@@ -9,6 +9,8 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+from groundplane.errors import UserInputError
+
 
 def available_memory_bytes() -> int | None:
     """MemAvailable from /proc/meminfo (Linux), else None (no check), plus what the kept pool's
@@ -114,6 +116,55 @@ def unguarded_main_script() -> str | None:
             "the script again; put the solve under that block, or use workers=0")
 
 
+def _is_main_test(test) -> bool:
+    """Whether an ``if`` tests ``__name__ == "__main__"`` (either way round)."""
+    import ast
+
+    if not (isinstance(test, ast.Compare) and len(test.ops) == 1 and isinstance(test.ops[0], ast.Eq)):
+        return False
+    sides = [test.left, test.comparators[0]]
+    return (any(isinstance(x, ast.Name) and x.id == "__name__" for x in sides)
+            and any(isinstance(x, ast.Constant) and x.value == "__main__" for x in sides))
+
+
+def unguarded_call_site() -> str | None:
+    """``script, line N`` when the program is a script whose top-level code, outside
+    ``if __name__ == "__main__":``, led to this call (found on the call stack, the block in the
+    script's syntax tree), else None. Spawned workers import the script again and would run that
+    code once each: every print, FoM and export three times with two workers."""
+    import ast
+
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    spec = getattr(main, "__spec__", None)
+    if not path or not Path(path).is_file() or (spec is not None and spec.name.endswith("__main__")):
+        return None  # `python -m package`: spawn does not run a package's __main__ again
+    frame = sys._getframe(1)
+    while frame is not None and not (frame.f_code.co_name == "<module>" and frame.f_globals.get("__name__") == "__main__"):
+        frame = frame.f_back
+    if frame is None or Path(frame.f_code.co_filename).resolve() != Path(path).resolve():
+        return None
+    line = frame.f_lineno
+    try:
+        tree = ast.parse(Path(path).read_text())
+    except (OSError, UnicodeDecodeError, SyntaxError, ValueError):
+        return None
+    guarded = any(isinstance(n, ast.If) and _is_main_test(n.test) and n.lineno <= line <= (n.end_lineno or n.lineno)
+                  for n in ast.walk(tree))
+    return None if guarded else f"{path}, line {line}"
+
+
+def refuse_unguarded_caller(workers: int) -> None:
+    """Stop at once, in the parent and before any worker is spawned, a script that asks for worker
+    processes from its unguarded top level (:func:`unguarded_call_site`)."""
+    where = unguarded_call_site()
+    if where is not None:
+        raise UserInputError(f"{where}: a solve with workers runs at the script's top level, outside "
+                             f"`if __name__ == \"__main__\":`; each of the {workers} spawned worker processes would "
+                             "import the script and run it again (every print, FoM and export once more). Put the "
+                             "script's work under that block, or use workers=0")
+
+
 def refuse_while_spawning() -> None:
     """Refuse a solve started by a worker process while it is spawned (it imports the user's script
     again, which solves again): it would wait forever on the parent's cache lock of the same beam,
@@ -185,5 +236,6 @@ def process_pool(workers: int) -> ProcessPoolExecutor:
     share a process with healpy's) that die with this process."""
     import multiprocessing as mp
 
+    refuse_unguarded_caller(workers)
     return ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"), initializer=worker_init,
                                initargs=(os.getpid(),))

@@ -333,7 +333,7 @@ def test_a_script_without_a_main_block_fails_with_the_cause_instead_of_waiting_f
     except subprocess.TimeoutExpired:
         pytest.fail("a script without a main block hung instead of failing")
     assert done.returncode != 0 and "solved" not in done.stdout
-    assert "survey.py has no `if __name__" in done.stderr.splitlines()[-1]
+    assert "survey.py, line 5: a solve with workers runs at the script's top level" in done.stderr.splitlines()[-1]
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="POSIX signals")
