@@ -20,11 +20,11 @@ from . import shapes
 from .api import compare, export, fabrication_plan, fom
 from .beam import Beam, BeamFormatError
 from .design import Design, FreeSpace, InfinitePEC, Soil
-from .errors import GroundplaneError, SolverError, UserInputError
+from .errors import ArgumentError, GroundplaneError, SolverError, UserInputError
 from .fom import FomResult, FomSettings
 from .shapes import from_file, preset
 
-__all__ = ["Beam", "BeamFormatError", "Design", "FomResult", "FomSettings", "FreeSpace", "GroundplaneError",
+__all__ = ["ArgumentError", "Beam", "BeamFormatError", "Design", "FomResult", "FomSettings", "FreeSpace", "GroundplaneError",
            "InfinitePEC", "Soil", "SolverError", "UserInputError", "compare", "export", "fabrication_plan", "fom", "from_file",
            "optimise", "preset", "score", "shapes", "solve", "solve_soils", "sweep"]
 __version__ = "0.1.0"

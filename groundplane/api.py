@@ -9,9 +9,10 @@ from pathlib import Path
 from typing import Any, Callable
 
 from .beam import Beam
+from .errors import ArgumentError, UserInputError
 from .fom import FomResult, FomSettings, figure_of_merit
-from .options import build
-from .shapes import GroundPlane, preset
+from .options import build, expect
+from .shapes import GroundPlane, as_plane
 
 API_GROUP = "groundplane.api"
 __all__ = ["fom", "compare", "export", "fabrication_plan", "fom_settings", "higher_layer"]
@@ -49,7 +50,9 @@ def fom(beam: Beam | str | os.PathLike, *, correction_beam: Beam | None = None, 
     from .loss import loss_or_note
 
     if not isinstance(beam, Beam):
-        beam = Beam.from_file(beam)
+        beam = Beam.from_file(_beam_path(beam, "fom()", "beam"))
+    if correction_beam is not None:
+        expect(correction_beam, Beam, "correction_beam", "fom()", "a Beam or None")
     result = figure_of_merit(beam, fom_settings(**settings), correction_beam=correction_beam)
     result.ground_loss = loss_or_note(beam)[0]
     return result
@@ -73,7 +76,13 @@ def compare(*beams: Beam | str | os.PathLike, labels: list[str] | None = None, e
     """
     from .comparison import compare_beams
 
-    loaded = [b if isinstance(b, Beam) else Beam.from_file(b) for b in beams]
+    if not beams:
+        raise UserInputError("compare(): give at least one beam")
+    loaded = [b if isinstance(b, Beam) else Beam.from_file(_beam_path(b, "compare()", f"beam {i + 1}"))
+              for i, b in enumerate(beams)]
+    if labels is not None and (not isinstance(labels, (list, tuple)) or len(labels) != len(beams)
+                               or not all(isinstance(x, str) for x in labels)):
+        raise ArgumentError(f"compare(): labels must be a list of {len(beams)} strings (one a beam), got {labels!r}"[:200])
     names = labels or [str(b) if not isinstance(b, Beam) else str(b.meta.get("source", f"beam {i}"))
                        for i, b in enumerate(beams)]
     return compare_beams(loaded, names, names, fom_settings(**settings), elevation_cut_deg)
@@ -93,7 +102,9 @@ def fabrication_plan(plane: GroundPlane | str, out_dir: str | os.PathLike | None
     """
     from .fabricate import MeshSheet, plan_sheets, write_plan
 
-    p = preset(plane) if isinstance(plane, str) else plane
+    p = as_plane(plane, "fabrication_plan()")
+    if out_dir is not None:
+        expect(out_dir, (str, os.PathLike), "out_dir", "fabrication_plan()", "a folder's path or None")
     plan = plan_sheets(p, build(MeshSheet, sheet, "sheet: "))
     if out_dir is None:
         return plan.summary()
@@ -115,8 +126,19 @@ def export(plane: GroundPlane | str, path: str | os.PathLike, *, thickness: floa
     """
     from .cad import export as write
 
-    return write(preset(plane) if isinstance(plane, str) else plane, path, thickness=thickness,
-                 with_antenna=with_antenna)
+    plane = as_plane(plane, "export()")
+    expect(path, (str, os.PathLike), "path", "export()", "a file's path (.step, .stl, .svg or .png)")
+    expect(thickness, (int, float), "thickness", "export()", "a number of metres")
+    return write(plane, path, thickness=thickness, with_antenna=bool(expect(with_antenna, bool, "with_antenna",
+                                                                            "export()", "True or False")))
+
+
+def _beam_path(beam: Any, where: str, name: str) -> Any:
+    """A beam argument that is not a Beam: a path, or a list of paths (FEKO quadrant files)."""
+    paths = beam if isinstance(beam, (list, tuple)) and beam else [beam]
+    for p in paths:
+        expect(p, (str, os.PathLike), name, where, "a Beam or a beam file's path")
+    return beam
 
 
 def higher_layer(name: str) -> Callable[..., Any]:

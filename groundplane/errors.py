@@ -49,6 +49,19 @@ class GroundLossUndefined(UserInputError):
     from it would be meaningless (directivity is lossless by definition)."""
 
 
+class ArgumentError(UserInputError, TypeError):
+    """A public function given an argument of a type it does not take, named with what it takes
+    (also a ``TypeError``, as Python's own are).
+
+    >>> import groundplane as gp
+    >>> try:
+    ...     gp.fom(None)
+    ... except gp.ArgumentError as exc:
+    ...     print(str(exc))
+    fom(): beam must be a Beam or a beam file's path, got None
+    """
+
+
 class ShapeError(UserInputError):
     """Impossible ground-plane geometry."""
 

@@ -16,7 +16,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from .errors import ConfigError, SettingsError, UserInputError
+from .errors import ArgumentError, ConfigError, SettingsError, UserInputError
 
 
 def option(default: Any, help: str, *, flag: str | None = None, parse: Callable[[str], Any] | None = None,
@@ -250,6 +250,18 @@ def option_keys(cls: type) -> set[str]:
 
 
 MAX_FREQS = 5000  # a 0.01 MHz sweep of 40-100 MHz; more is a step typed wrong
+
+
+def expect(value: Any, kinds: type | tuple[type, ...], name: str, where: str, takes: str) -> Any:
+    """``value`` when it is one of ``kinds`` (a bool is no number), else :class:`ArgumentError`
+    naming the argument, the function and what it ``takes``: ``gp.fom(None)`` was a TypeError deep
+    in the loader, ``gp.score(sq, scenarios=5)`` an AttributeError."""
+    kinds = kinds if isinstance(kinds, tuple) else (kinds,)
+    number_wanted = any(k in (int, float) for k in kinds) and bool not in kinds
+    if not isinstance(value, kinds) or (number_wanted and isinstance(value, bool)):
+        shown = repr(value)
+        raise ArgumentError(f"{where}: {name} must be {takes}, got {shown if len(shown) <= 60 else shown[:57] + '...'}")
+    return value
 
 
 MAX_NAME_CHARS = 120

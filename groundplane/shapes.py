@@ -740,6 +740,18 @@ def preset(name: str) -> GroundPlane:
         raise ShapeError(f"unknown preset '{name}'; choose one of {', '.join(PRESETS)}") from None
 
 
+
+def as_plane(plane: Any, where: str) -> "GroundPlane":
+    """A public function's plane argument: a shape, or a preset's name; anything else refused
+    (:class:`~groundplane.errors.ArgumentError`) naming the function."""
+    if isinstance(plane, str):
+        return preset(plane)
+    if not isinstance(plane, GroundPlane):
+        from .options import expect
+
+        expect(plane, GroundPlane, "plane", where, "a ground-plane shape or a preset's name")
+    return plane
+
 def from_dict(d: dict[str, Any]) -> GroundPlane:
     """Build a shape from ``{"shape": kind, **params}`` (the sweep/optimiser format) or a preset."""
     if not isinstance(d, dict):

@@ -7,8 +7,8 @@ from pathlib import Path
 from typing import Any
 
 from groundplane.fom import FomSettings
-from groundplane.options import option_keys
-from groundplane.shapes import GroundPlane, preset
+from groundplane.options import expect, option_keys
+from groundplane.shapes import GroundPlane, as_plane
 
 from .evaluate import Candidate, EvalSettings
 from .sweep import settings_from_tables
@@ -25,8 +25,17 @@ def eval_settings(**options: Any) -> EvalSettings:
                                 {k: v for k, v in options.items() if k in fom_keys}, "")
 
 
-def _plane(plane: GroundPlane | str) -> GroundPlane:
-    return preset(plane) if isinstance(plane, str) else plane
+PATH = (str, Path)
+NUMBER = (int, float)
+
+
+def _common(where: str, scenarios: Any, aggregate: Any, max_loss: Any, max_loss_spread: Any, progress: Any) -> None:
+    """The arguments score and optimise share, type-checked (:class:`ArgumentError`)."""
+    expect(scenarios, PATH, "scenarios", where, "a scenario set's name or a TOML file's path")
+    expect(aggregate, (str, type(None)), "aggregate", where, "'mean', 'worst', 'worst-K' or None")
+    expect(max_loss, (*NUMBER, type(None)), "max_loss", where, "a fraction or None")
+    expect(max_loss_spread, (*NUMBER, type(None)), "max_loss_spread", where, "a fraction or None")
+    expect(progress, bool, "progress", where, "True or False")
 
 
 def score(plane: GroundPlane | str, *, scenarios: str = "soil", aggregate: str | None = None,
@@ -63,10 +72,11 @@ def score(plane: GroundPlane | str, *, scenarios: str = "soil", aggregate: str |
     """
     from .scenarios import Constraints, check_set, evaluate_scenarios, scenario_set
 
-    p = _plane(plane)
+    p = as_plane(plane, "score()")
+    _common("score()", scenarios, aggregate, max_loss, max_loss_spread, progress)
     settings = eval_settings(**options)
     settings.check_scorable()
-    members = scenario_set(scenarios, aggregate)
+    members = scenario_set(str(scenarios), aggregate)  # a set's name, or a file's path as a Path too
     check_set(members, settings, p)
     name = plane if isinstance(plane, str) else p.kind
     row = evaluate_scenarios(Candidate(name, plane=p), settings, members, Constraints(max_loss, max_loss_spread),
@@ -103,8 +113,15 @@ def optimise(shape: str, max_area: float, out_dir: str | Path, *, budget: int = 
     from .scenarios import Constraints, check_set, scenario_set
     from .search import optimise as search
 
+    expect(shape, str, "shape", "optimise()", "a shape family's name")
+    expect(max_area, NUMBER, "max_area", "optimise()", "a metal budget in m^2")
+    expect(out_dir, PATH, "out_dir", "optimise()", "a folder's path")
+    expect(budget, int, "budget", "optimise()", "a whole number of solves")
+    expect(max_budget, (int, type(None)), "max_budget", "optimise()", "a whole number of solves or None")
+    expect(strategy, str, "strategy", "optimise()", "'global' or 'local'")
+    _common("optimise()", scenarios, aggregate, max_loss, max_loss_spread, progress)
     settings = eval_settings(**options)
-    members = scenario_set(scenarios, aggregate)
+    members = scenario_set(str(scenarios), aggregate)  # a set's name, or a file's path as a Path too
     check_set(members, settings)
     return search(shape, max_area, settings, out_dir, budget=budget, max_budget=max_budget, scenarios=members,
                   constraints=Constraints(max_loss, max_loss_spread), strategy=strategy, progress=progress)
@@ -121,6 +138,9 @@ def sweep(config: str | Path, out_dir: str | Path, *, progress: bool = False) ->
     """
     from .sweep import load_config, load_scenarios, run_sweep
 
+    expect(config, PATH, "config", "sweep()", "a sweep file's path")
+    expect(out_dir, PATH, "out_dir", "sweep()", "a folder's path")
+    expect(progress, bool, "progress", "sweep()", "True or False")
     candidates, invalid, settings = load_config(config)
     opts = load_scenarios(config)
     if opts is None:

@@ -7,8 +7,8 @@ from typing import Any, Mapping, Sequence
 from groundplane.beam import Beam
 from groundplane.design import Design, FreeSpace, InfinitePEC, Soil
 from groundplane.errors import ConfigError, UserInputError
-from groundplane.options import build, option_keys
-from groundplane.shapes import GroundPlane, preset
+from groundplane.options import build, expect, option_keys
+from groundplane.shapes import GroundPlane, as_plane
 
 __all__ = ["solve", "solve_soils", "design_of", "solve_options_from_mapping"]
 
@@ -36,8 +36,9 @@ def design_of(plane: GroundPlane | str | Design | None, ground: str = "soil", so
     or a :class:`~groundplane.design.Design` as it is."""
     if isinstance(plane, Design):
         return plane
-    if isinstance(plane, str):
-        plane = preset(plane)
+    if plane is not None:
+        plane = as_plane(plane, "solve()")
+    expect(ground, str, "ground", "solve()", "'soil', 'pec' or 'free'")
     if ground == "pec":
         return Design(plane, InfinitePEC())
     if ground == "free":
@@ -110,6 +111,7 @@ def solve_soils(plane: GroundPlane | str, soils: Sequence[Soil | tuple[float, fl
     >>> dry.freqs_mhz.tolist()  # doctest: +SKIP
     [55.0, 76.0, 97.0]
     """
+    plane = as_plane(plane, "solve_soils()")
     given = sorted({"eps_r", "sigma"} & set(options))
     if given:
         raise UserInputError(f"solve_soils(): {' and '.join(given)} come from soils, not from a keyword")

@@ -10,7 +10,7 @@ import pytest
 import groundplane as gp
 from tests.conftest import ROOT
 
-TINY = {"mesh": 2.0, "blade_cells": (4, 4), "freqs": "55:97:4", "workers": 1, "n_lst": 24}
+TINY = {"mesh": 1.5, "blade_cells": (4, 4), "freqs": "55:97:4", "workers": 1, "n_lst": 24}
 
 
 def test_every_public_name_is_documented_with_an_example():
@@ -92,7 +92,7 @@ def test_score_optimise_sweep_and_fabrication_plan(tmp_path, monkeypatch):
     res = gp.optimise("square", 30.0, tmp_path / "opt", budget=2, scenarios="nominal", max_loss=None, **TINY)
     assert res.best is not None and res.best["area_m2"] <= 30.0
     cfg = tmp_path / "s.toml"
-    cfg.write_text('[solver]\nmesh = 2.0\nblade_cells = [4, 4]\nfreqs = "55:97:4"\nworkers = 1\n[fom]\nn_lst = 24\n'
+    cfg.write_text('[solver]\nmesh = 1.5\nblade_cells = [4, 4]\nfreqs = "55:97:4"\nworkers = 1\n[fom]\nn_lst = 24\n'
                    '[[candidate]]\nshape = "square"\nside = 4.0\n')
     rows = gp.sweep(cfg, tmp_path / "sweep")
     assert rows[0]["status"] == "ok"

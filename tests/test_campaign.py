@@ -325,3 +325,71 @@ def test_hostile_files_are_refused_within_the_memory_ceiling(what, tmp_path):
                           capture_output=True, text=True, timeout=120, preexec_fn=limit, env=env, cwd=ROOT)
     assert proc.returncode == 2, (what, proc.stderr[-2000:])
     assert "Traceback" not in proc.stderr and proc.stderr.strip().splitlines()[-1].startswith("groundplane fom: error")
+
+
+# ------------------------------------------------------------------ the Python API
+wrong_values = st.one_of(st.none(), st.booleans(), numbers, st.text(max_size=12), st.binary(max_size=4),
+                         st.lists(st.integers(), max_size=2), st.dictionaries(st.text(max_size=3), st.integers(), max_size=2),
+                         st.just(object()), st.just(Path("/nonexistent/groundplane")))
+
+
+def _positive(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0
+
+
+SQ = "square-10"
+API_CALLS = {  # (call with one value a user could get wrong, which values are right: those would really work)
+    "fom": (lambda gp, a: gp.fom(a), None),
+    "fom correction_beam": (lambda gp, a: gp.fom(EXAMPLE, correction_beam=a, n_lst=24), lambda a: a is None),
+    "compare": (lambda gp, a: gp.compare(a, a), None),
+    "compare labels": (lambda gp, a: gp.compare(EXAMPLE, labels=a), None),
+    "export plane": (lambda gp, a: gp.export(a, "x.stl"), None),
+    "export path": (lambda gp, a: gp.export(SQ, a), None),  # any path is written: right when it is one
+    "fabrication_plan": (lambda gp, a: gp.fabrication_plan(a), None),
+    "fabrication_plan out_dir": (lambda gp, a: gp.fabrication_plan(SQ, a), None),
+    "solve": (lambda gp, a: gp.solve(a), None),
+    "solve ground": (lambda gp, a: gp.solve(SQ, ground=a, freqs="55:97:21", mesh=1.5), None),
+    "solve_soils plane": (lambda gp, a: gp.solve_soils(a, [(3.5, 0.02)]), None),
+    "solve_soils soils": (lambda gp, a: gp.solve_soils(SQ, a), None),
+    "score plane": (lambda gp, a: gp.score(a), None),
+    "score scenarios": (lambda gp, a: gp.score(SQ, scenarios=a), None),
+    "score max_loss": (lambda gp, a: gp.score(SQ, max_loss=a, scenarios="nonesuch"), None),
+    "optimise shape": (lambda gp, a: gp.optimise(a, 100.0, "o"), None),
+    "optimise max_area": (lambda gp, a: gp.optimise("square", a, "o"), _positive),
+    "optimise budget": (lambda gp, a: gp.optimise("square", 100.0, "o", budget=a), lambda a: _positive(a)
+                        and isinstance(a, int)),
+    "sweep": (lambda gp, a: gp.sweep(a, "o"), None),
+}
+
+
+@FAST
+@given(name=st.sampled_from(sorted(API_CALLS)), value=wrong_values)
+def test_api_functions_fast(name, value, tmp_path_factory, monkeypatch):
+    _api_call(name, value, tmp_path_factory, monkeypatch)
+
+
+@pytest.mark.slow
+@LONG
+@given(name=st.sampled_from(sorted(API_CALLS)), value=wrong_values)
+def test_api_functions_long(name, value, tmp_path_factory, monkeypatch):
+    _api_call(name, value, tmp_path_factory, monkeypatch)
+
+
+def _api_call(name, value, tmp_path_factory, monkeypatch) -> None:
+    """A wrong value in any argument: a GroundplaneError (what the docs promise), never Python's own
+    TypeError or AttributeError from deep inside; a right one (a path where any path will do): done."""
+    from hypothesis import assume
+
+    import groundplane as gp
+    from groundplane.errors import GroundplaneError
+
+    call, right = API_CALLS[name]
+    assume(right is None or not right(value))  # a right budget would start a real search
+    monkeypatch.chdir(tmp_path_factory.mktemp("api"))
+    try:
+        call(gp, value)
+    except GroundplaneError:
+        return
+    except Exception as exc:  # noqa: BLE001 - this is what the campaign hunts
+        raise AssertionError(f"{name}: {value!r}: {type(exc).__name__}: {exc}") from exc
+    assert name in ("export path", "fabrication_plan out_dir"), f"{name}: {value!r} was accepted"

@@ -324,3 +324,24 @@ def test_a_script_asking_for_workers_from_its_top_level_stops_at_once(tmp_path):
                           timeout=300)
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["before", "solved"]
+
+
+# 12 ------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("call,message", [
+    ("gp.fom(None)", "fom(): beam must be a Beam or a beam file's path, got None"),
+    ("gp.fom(42)", "fom(): beam must be a Beam or a beam file's path, got 42"),
+    ("gp.compare(None)", "compare(): beam 1 must be a Beam or a beam file's path, got None"),
+    ("gp.score(None)", "score(): plane must be a ground-plane shape or a preset's name, got None"),
+    ("gp.score(gp.preset('square-10'), scenarios=5)", "score(): scenarios must be a scenario set's name"),
+    ("gp.export(None, 'p.stl')", "export(): plane must be a ground-plane shape"),
+    ("gp.fabrication_plan(None)", "fabrication_plan(): plane must be a ground-plane shape"),
+    ("gp.export(gp.preset('square-10'), None)", "export(): path must be a file's path"),
+])
+def test_the_python_api_names_a_wrong_argument(call, message):
+    """Each was a TypeError or AttributeError from deep inside (`load_beam`, the scenario reader)."""
+    import groundplane as gp
+
+    with pytest.raises(gp.ArgumentError, match=__import__("re").escape(message)):
+        eval(call)
+    with pytest.raises(TypeError):  # an ArgumentError is a TypeError too, as Python's own are
+        eval(call)
