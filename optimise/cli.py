@@ -486,7 +486,7 @@ def _run_fabricate(args: argparse.Namespace) -> int:
         snapped, moved = fab.snap_to_sheet(plane, sheet)
         snap = _snap_report(plane, snapped, moved, eval_settings(args), out)
         plane = snapped
-    summary = fab.write_plan(fab.plan_sheets(plane, sheet), out, invocation())
+    summary = fab.write_plan(fab.plan_sheets(plane, sheet, progress=True), out, invocation())
     print(f"{summary['design']}: {summary['sheets_bought']} sheets ({summary['sheets_full']} whole, "
           f"{summary['sheets_cut']} cut), waste {summary['waste_percent']:.1f} %, seams {summary['seam_length_m']:.1f} m, "
           f"mesh {summary['mass_kg']:.0f} kg; outline.dxf, plan.png/.svg, cutlist.csv, plan.json in {out}")
