@@ -399,3 +399,15 @@ def test_offcut_placement_finds_what_every_move_found_without_trying_them_all(ca
                 tried += 1
                 assert new[1:] == old[1:] and new[0].equals_exact(old[0], 1e-12)
     assert tried > 0
+
+
+def test_an_outline_of_thousands_of_corners_is_refused_before_geometry_work(tmp_path, capsys):
+    """A 9999-vertex polygon: `fabricate --design` over 120 s, `export` to STEP 93 s and 883 MB."""
+    import json
+
+    angles = np.linspace(0, 2 * np.pi, 2500, endpoint=False)
+    path = tmp_path / "p.json"
+    path.write_text(json.dumps({"shape": "polygon", "vertices": np.c_[10 * np.cos(angles),
+                                                                         10 * np.sin(angles)].tolist()}))
+    assert main(["export", "--design", str(path), "-o", str(tmp_path / "p.step")]) == 2
+    assert "2,500 vertices; at most 2,000" in _err(capsys)
