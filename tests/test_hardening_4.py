@@ -8,26 +8,10 @@ import pytest
 from groundplane.beam import Beam
 from groundplane.cli import main
 from tests.conftest import ROOT
+from tests.test_hardening import EXAMPLE, _err, _variant
+from tests.test_hardening import example as _third_pass_example
 
-EXAMPLE = ROOT / "examples" / "lowband_square10_nec.npz"
-
-
-def _err(capsys) -> str:
-    err = capsys.readouterr().err.strip().splitlines()
-    return err[-1] if err else ""
-
-
-@pytest.fixture(scope="module")
-def example() -> Beam:
-    return Beam.load(EXAMPLE)
-
-
-def _variant(tmp_path, example, keep=None, scale=1.0, name="b.npz"):
-    k = np.ones(example.freqs_mhz.size, bool) if keep is None else keep(example.freqs_mhz)
-    path = tmp_path / name
-    sub = example.at_frequencies(np.flatnonzero(k))
-    Beam(sub.freqs_mhz, sub.theta_deg, sub.phi_deg, sub.gain * scale, sub.meta).save(path)
-    return str(path)
+example = _third_pass_example  # the shipped beam, loaded once per module (the third pass's fixture)
 
 
 # 3 -------------------------------------------------------------------------------------------
@@ -144,7 +128,7 @@ def test_a_beside_that_is_no_front_is_refused(tmp_path, capsys, beside, why):
 @pytest.mark.parametrize("where,name", [("set", "\\u001b[31m"), ("member", "a\\nb"), ("member", "tab\\there"),
                                         ("member", "   ")])
 def test_a_name_with_control_characters_is_refused(tmp_path, where, name):
-    """A member named "\\u001b[31m" was printed raw (coloured the terminal); one with a newline broke
+    r"""A member named "\u001b[31m" was printed raw (coloured the terminal); one with a newline broke
     the markdown table."""
     from groundplane.errors import ConfigError
     from optimise.scenarios import load_set
