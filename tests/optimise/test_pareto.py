@@ -95,13 +95,14 @@ def test_global_search_finds_the_basin_a_local_start_misses(tmp_path):
     assert any(p is PRESETS["square-10"] for p in glob)
 
 
-def test_pareto_refuses_bad_budgets(capsys):
+def test_pareto_refuses_bad_budgets(capsys, tmp_path):
     from groundplane.cli import main
 
-    assert main(["optimise", "--shape", "teeth", "--pareto", "100", "-5", "-o", "x"]) == 2
+    out = str(tmp_path / "x")  # not the working folder: the refusal comes after the folder is checked
+    assert main(["optimise", "--shape", "teeth", "--pareto", "100", "-5", "-o", out]) == 2
     assert "metal budgets must be positive" in capsys.readouterr().err
     with pytest.raises(SystemExit) as exc:  # argparse: one or the other
-        main(["optimise", "--shape", "teeth", "--pareto", "100", "--max-area", "50", "-o", "x"])
+        main(["optimise", "--shape", "teeth", "--pareto", "100", "--max-area", "50", "-o", out])
     assert exc.value.code == 2
 
 
