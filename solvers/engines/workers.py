@@ -34,8 +34,10 @@ def limit_left_bytes() -> int | None:
     it maps already, or None when it has none: under a 2 GB limit a solve the machine's memory
     allowed ran 98 s into a MemoryError. (Each worker inherits the limit; the solve's estimates,
     summed over its processes, are held to it as if it were shared: cautious by the worker count.)"""
-    import resource
-
+    try:
+        import resource
+    except ImportError:  # not POSIX: no such limit to honour
+        return None
     soft, _ = resource.getrlimit(resource.RLIMIT_AS)
     if soft == resource.RLIM_INFINITY:
         return None
